@@ -1,0 +1,2 @@
+//! host-sim: the std host simulator for the reactionless core.
+fn main() {}

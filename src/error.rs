@@ -1,0 +1,208 @@
+//! The error type: every way an input can be rejected or a computation can fail.
+//!
+//! Owns [`Error`] and the small enums that name *which* parameter was wrong. Errors are
+//! `Copy`, carry no heap data, and say what was wrong; a spent budget is a status, never an
+//! error. Joint and link numbers are 1-based (`q1 … qN`, `link1 … linkN`) as in the URDF and
+//! the paper.
+
+use core::fmt;
+
+/// A body of the robot: the free-floating base or link `1..=N`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Body {
+    /// The base (body 0).
+    Base,
+    /// Link `i` (1-based): the body moved by joint `i`.
+    Link(u8),
+}
+
+/// The parameter an [`Error`] refers to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Param {
+    /// Mass of a body (kg).
+    Mass(Body),
+    /// Centre-of-mass offset or inertial-frame angles of a body (m, rad).
+    CenterOfMass(Body),
+    /// Inertia tensor of a body (kg m²).
+    Inertia(Body),
+    /// Origin (xyz, rpy) of joint `i` in its parent frame (m, rad).
+    JointOrigin(u8),
+    /// Axis of joint `i`.
+    JointAxis(u8),
+    /// Lower position limit of joint `i` (rad).
+    LowerLimit(u8),
+    /// Upper position limit of joint `i` (rad).
+    UpperLimit(u8),
+    /// Velocity limit of joint `i` (rad/s); `0` is the common bound `q̇_max` of eq. 14.
+    VelocityLimit(u8),
+    /// Origin of the end-effector frame in the last link's frame (m, rad).
+    EndEffector,
+    /// Start angle of joint `i` (rad).
+    Start(u8),
+    /// Target position (m).
+    TargetPosition,
+    /// Target attitude quaternion.
+    TargetAttitude,
+    /// Motion duration `t_f` (s).
+    FinalTime,
+    /// Integration step `dt` (s).
+    TimeStep,
+    /// Polynomial degree `n` of the time law.
+    Degree,
+    /// Component `i` (1-based) of the parameter vector η.
+    Eta(u8),
+}
+
+/// Why a null-space computation lost rank.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RankLoss {
+    /// `H~bm` is (numerically) rank-deficient: the estimated `σ_min/σ_max` fell below
+    /// [`crate::RANK_TOLERANCE`].
+    Coupling,
+    /// A modified Gram–Schmidt pivot fell below [`crate::PIVOT_TOLERANCE`]: the projected
+    /// basis no longer spans the null space.
+    Basis,
+}
+
+/// Everything that can go wrong, as a small `Copy` value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Error {
+    /// A value that must be finite is NaN or infinite.
+    NotFinite(Param),
+    /// A value that must be strictly positive is zero or negative.
+    NotPositive(Param),
+    /// An inertia tensor is not positive definite.
+    InertiaNotPositiveDefinite(Body),
+    /// A joint axis is not a unit vector (|‖axis‖ − 1| > [`crate::UNIT_TOLERANCE`]).
+    AxisNotUnit(u8),
+    /// A joint's lower limit is not below its upper limit.
+    LimitsInverted(u8),
+    /// A start angle lies outside its joint limits.
+    StartOutsideLimits(u8),
+    /// A quaternion's norm differs from 1 by more than [`crate::UNIT_TOLERANCE`].
+    QuaternionNotUnit,
+    /// `t_f` is not a whole multiple of `dt` (relative tolerance 1e-9).
+    StepsNotInteger,
+    /// `t_f / dt` exceeds [`crate::MAX_STEPS`].
+    TooManySteps,
+    /// The time-law degree `n` is outside `1..=`[`crate::MAX_DEGREE`].
+    DegreeOutOfRange,
+    /// A slice has the wrong length.
+    WrongLength {
+        /// Length required.
+        expected: u16,
+        /// Length given.
+        got: u16,
+    },
+    /// η is zero (all β ≡ 0): no motion is defined.
+    EtaZero,
+    /// The reaction null space lost rank at integration step `step` (0 = start).
+    RankLoss {
+        /// Integration step (0-based; 0 is the start configuration).
+        step: u32,
+        /// Which test failed.
+        cause: RankLoss,
+    },
+    /// A non-finite value appeared in the state at integration step `step`.
+    NonFiniteState {
+        /// Integration step (0-based).
+        step: u32,
+    },
+    /// The system inertia `H~b` is not positive definite (never for a valid model).
+    SingularInertia,
+}
+
+impl fmt::Display for Body {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Body::Base => f.write_str("base"),
+            Body::Link(i) => write!(f, "link {i}"),
+        }
+    }
+}
+
+impl fmt::Display for Param {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Param::Mass(b) => write!(f, "mass of {b}"),
+            Param::CenterOfMass(b) => write!(f, "inertial origin of {b}"),
+            Param::Inertia(b) => write!(f, "inertia of {b}"),
+            Param::JointOrigin(j) => write!(f, "origin of joint {j}"),
+            Param::JointAxis(j) => write!(f, "axis of joint {j}"),
+            Param::LowerLimit(j) => write!(f, "lower limit of joint {j}"),
+            Param::UpperLimit(j) => write!(f, "upper limit of joint {j}"),
+            Param::VelocityLimit(j) => write!(f, "velocity limit of joint {j}"),
+            Param::EndEffector => f.write_str("end-effector origin"),
+            Param::Start(j) => write!(f, "start angle of joint {j}"),
+            Param::TargetPosition => f.write_str("target position"),
+            Param::TargetAttitude => f.write_str("target quaternion"),
+            Param::FinalTime => f.write_str("motion duration t_f"),
+            Param::TimeStep => f.write_str("time step dt"),
+            Param::Degree => f.write_str("time-law degree n"),
+            Param::Eta(i) => write!(f, "eta component {i}"),
+        }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::NotFinite(p) => write!(f, "{p} is not a finite number"),
+            Error::NotPositive(p) => write!(f, "{p} must be strictly positive"),
+            Error::InertiaNotPositiveDefinite(b) => {
+                write!(f, "inertia of {b} is not positive definite")
+            }
+            Error::AxisNotUnit(j) => write!(
+                f,
+                "axis of joint {j} is not a unit vector (|norm - 1| > {:e})",
+                crate::UNIT_TOLERANCE
+            ),
+            Error::LimitsInverted(j) => {
+                write!(f, "joint {j}: lower limit is not below the upper limit")
+            }
+            Error::StartOutsideLimits(j) => {
+                write!(f, "start angle of joint {j} is outside its limits")
+            }
+            Error::QuaternionNotUnit => write!(
+                f,
+                "quaternion is not unit length (|norm - 1| > {:e})",
+                crate::UNIT_TOLERANCE
+            ),
+            Error::StepsNotInteger => f.write_str("t_f is not a whole multiple of dt"),
+            Error::TooManySteps => write!(
+                f,
+                "t_f / dt exceeds the maximum of {} integration steps",
+                crate::MAX_STEPS
+            ),
+            Error::DegreeOutOfRange => {
+                write!(f, "time-law degree n must be in 1..={}", crate::MAX_DEGREE)
+            }
+            Error::WrongLength { expected, got } => {
+                write!(f, "expected {expected} values, got {got}")
+            }
+            Error::EtaZero => f.write_str("eta is zero: no motion is defined"),
+            Error::RankLoss { step, cause } => match cause {
+                RankLoss::Coupling => write!(
+                    f,
+                    "coupling inertia H~bm lost rank at integration step {step}"
+                ),
+                RankLoss::Basis => write!(
+                    f,
+                    "reaction null-space basis degenerated at integration step {step}"
+                ),
+            },
+            Error::NonFiniteState { step } => {
+                write!(f, "non-finite state at integration step {step}")
+            }
+            Error::SingularInertia => f.write_str("system inertia H~b is singular"),
+        }
+    }
+}
+
+impl core::error::Error for Error {}

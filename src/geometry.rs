@@ -1,0 +1,603 @@
+//! Rotations, poses and symmetric 3×3 tensors: the small fixed-size geometry the rest of
+//! the core is built from.
+//!
+//! Owns: URDF roll-pitch-yaw ↔ rotation matrix, the orthonormal frame that puts a joint
+//! axis on `z`, rotation matrix ↔ unit quaternion (`w ≥ 0`), the pose type used at the
+//! interface, the pose error of spec §6 (position difference and rotation vector), and
+//! [`Sym3`], a symmetric 3×3 matrix stored as its six distinct entries (inertia tensors,
+//! `AAᵀ`) with an `LDLᵀ` solve that never divides by zero.
+//!
+//! Every transcendental function comes from `libm`, so results are bit-identical on every
+//! target. Angles are radians, lengths metres.
+
+use nalgebra::{Matrix3, Vector3};
+
+/// 3-vector of `f64` (metres, radians or radians per second as documented at each use).
+pub type Vec3 = Vector3<f64>;
+/// 3×3 matrix of `f64` (rotations are proper orthonormal).
+pub type Mat3 = Matrix3<f64>;
+
+/// Rotation matrix of URDF roll-pitch-yaw angles (rad): `R = Rz(yaw)·Ry(pitch)·Rx(roll)`.
+///
+/// Zero angles give the identity exactly.
+#[must_use]
+pub fn rpy_matrix(rpy: [f64; 3]) -> Mat3 {
+    let [roll, pitch, yaw] = rpy;
+    let (sr, cr) = libm::sincos(roll);
+    let (sp, cp) = libm::sincos(pitch);
+    let (sy, cy) = libm::sincos(yaw);
+    Mat3::new(
+        cy * cp,
+        cy * sp * sr - sy * cr,
+        cy * sp * cr + sy * sr,
+        sy * cp,
+        sy * sp * sr + cy * cr,
+        sy * sp * cr - cy * sr,
+        -sp,
+        cp * sr,
+        cp * cr,
+    )
+}
+
+/// URDF roll-pitch-yaw angles (rad) of a rotation matrix; inverse of [`rpy_matrix`].
+///
+/// Pitch is in `[−π/2, π/2]`; at gimbal lock (|cos pitch| < 1e-12) roll is set to 0.
+#[must_use]
+pub fn matrix_rpy(r: &Mat3) -> [f64; 3] {
+    let cp = libm::hypot(r.m11, r.m21);
+    let pitch = libm::atan2(-r.m31, cp);
+    if cp < 1e-12 {
+        // Gimbal lock: only yaw ∓ roll is defined; put it all in yaw.
+        let yaw = libm::atan2(-r.m12, r.m22);
+        [0.0, pitch, yaw]
+    } else {
+        [libm::atan2(r.m32, r.m33), pitch, libm::atan2(r.m21, r.m11)]
+    }
+}
+
+/// Rotation that maps `e_z` onto the unit vector `k`: columns `[u, v, k]`, right-handed.
+///
+/// Duff et al., "Building an orthonormal basis, revisited" (JCGT 2017). Exact for the
+/// coordinate axes (`k = e_z` gives the identity).
+#[must_use]
+pub fn frame_with_z(k: &Vec3) -> Mat3 {
+    let sign = libm::copysign(1.0, k.z);
+    let a = -1.0 / (sign + k.z);
+    let b = k.x * k.y * a;
+    let u = Vec3::new(1.0 + sign * k.x * k.x * a, sign * b, -sign * k.x);
+    let v = Vec3::new(b, sign + k.y * k.y * a, -k.y);
+    Mat3::from_columns(&[u, v, *k])
+}
+
+/// Right-multiplies `r` by `Rz(θ)` given `(sin θ, cos θ)`: only the first two columns change.
+#[inline]
+pub(crate) fn mul_rz(r: &Mat3, s: f64, c: f64) -> Mat3 {
+    let c0 = r.column(0);
+    let c1 = r.column(1);
+    Mat3::from_columns(&[c0 * c + c1 * s, c1 * c - c0 * s, r.column(2).into_owned()])
+}
+
+/// Unit quaternion `[w, x, y, z]` of a rotation matrix, with `w ≥ 0` (Shepperd's method).
+#[must_use]
+pub fn matrix_quat(r: &Mat3) -> [f64; 4] {
+    let tr = r.m11 + r.m22 + r.m33;
+    let q = if tr >= r.m11 && tr >= r.m22 && tr >= r.m33 {
+        let s = 2.0 * libm::sqrt(1.0 + tr);
+        [
+            0.25 * s,
+            (r.m32 - r.m23) / s,
+            (r.m13 - r.m31) / s,
+            (r.m21 - r.m12) / s,
+        ]
+    } else if r.m11 >= r.m22 && r.m11 >= r.m33 {
+        let s = 2.0 * libm::sqrt(1.0 + r.m11 - r.m22 - r.m33);
+        [
+            (r.m32 - r.m23) / s,
+            0.25 * s,
+            (r.m12 + r.m21) / s,
+            (r.m13 + r.m31) / s,
+        ]
+    } else if r.m22 >= r.m33 {
+        let s = 2.0 * libm::sqrt(1.0 + r.m22 - r.m11 - r.m33);
+        [
+            (r.m13 - r.m31) / s,
+            (r.m12 + r.m21) / s,
+            0.25 * s,
+            (r.m23 + r.m32) / s,
+        ]
+    } else {
+        let s = 2.0 * libm::sqrt(1.0 + r.m33 - r.m11 - r.m22);
+        [
+            (r.m21 - r.m12) / s,
+            (r.m13 + r.m31) / s,
+            (r.m23 + r.m32) / s,
+            0.25 * s,
+        ]
+    };
+    canonical(normalized(q))
+}
+
+/// Rotation matrix of a unit quaternion `[w, x, y, z]` (not re-normalised).
+#[must_use]
+pub fn quat_matrix(q: [f64; 4]) -> Mat3 {
+    let [w, x, y, z] = q;
+    Mat3::new(
+        1.0 - 2.0 * (y * y + z * z),
+        2.0 * (x * y - w * z),
+        2.0 * (x * z + w * y),
+        2.0 * (x * y + w * z),
+        1.0 - 2.0 * (x * x + z * z),
+        2.0 * (y * z - w * x),
+        2.0 * (x * z - w * y),
+        2.0 * (y * z + w * x),
+        1.0 - 2.0 * (x * x + y * y),
+    )
+}
+
+/// Hamilton product `a ⊗ b` of quaternions `[w, x, y, z]`.
+#[must_use]
+pub fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    let [aw, ax, ay, az] = a;
+    let [bw, bx, by, bz] = b;
+    [
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    ]
+}
+
+/// Unit quaternion of the rotation vector `θ` (rad): `exp(θ/2)`.
+#[must_use]
+pub fn quat_exp(theta: &Vec3) -> [f64; 4] {
+    let angle = theta.norm();
+    let half = 0.5 * angle;
+    let (s, c) = libm::sincos(half);
+    // sin(θ/2)/θ, with its series near 0 so tiny rotations stay accurate.
+    let k = if angle < 1e-6 {
+        0.5 - angle * angle / 48.0
+    } else {
+        s / angle
+    };
+    [c, k * theta.x, k * theta.y, k * theta.z]
+}
+
+/// Rotation vector (rad) of the unit quaternion `q`, angle in `[0, π]`.
+#[must_use]
+pub fn quat_log(q: [f64; 4]) -> Vec3 {
+    let [w, x, y, z] = canonical(q);
+    let v = Vec3::new(x, y, z);
+    let s = v.norm();
+    if s == 0.0 {
+        return Vec3::zeros();
+    }
+    let angle = 2.0 * libm::atan2(s, w);
+    v * (angle / s)
+}
+
+/// Rotation angle (rad, in `[0, π]`) of the unit quaternion `q`.
+#[must_use]
+pub fn quat_angle(q: [f64; 4]) -> f64 {
+    let [w, x, y, z] = q;
+    2.0 * libm::atan2(libm::sqrt(x * x + y * y + z * z), libm::fabs(w))
+}
+
+/// `q / ‖q‖` (a zero quaternion is returned unchanged; callers validate first).
+#[must_use]
+pub fn normalized(q: [f64; 4]) -> [f64; 4] {
+    let [w, x, y, z] = q;
+    let n = libm::sqrt(w * w + x * x + y * y + z * z);
+    if n == 0.0 {
+        return q;
+    }
+    [w / n, x / n, y / n, z / n]
+}
+
+/// The representative of `±q` with `w ≥ 0` (first non-zero component positive if `w = 0`).
+#[must_use]
+pub fn canonical(q: [f64; 4]) -> [f64; 4] {
+    let [w, x, y, z] = q;
+    let flip = if w != 0.0 {
+        w < 0.0
+    } else if x != 0.0 {
+        x < 0.0
+    } else if y != 0.0 {
+        y < 0.0
+    } else {
+        z < 0.0
+    };
+    if flip { [-w, -x, -y, -z] } else { q }
+}
+
+/// A pose in the inertial frame: position (m) and attitude as a unit quaternion `[w,x,y,z]`.
+///
+/// The quaternion maps body coordinates to inertial coordinates (`p_I = R(q)·p_B`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Pose {
+    /// Position of the frame origin (m).
+    pub position: [f64; 3],
+    /// Attitude, unit quaternion `[w, x, y, z]` with `w ≥ 0`.
+    pub quat_wxyz: [f64; 4],
+}
+
+impl Pose {
+    /// Pose from a position and a rotation matrix.
+    #[must_use]
+    pub fn from_parts(position: &Vec3, rotation: &Mat3) -> Self {
+        Self {
+            position: [position.x, position.y, position.z],
+            quat_wxyz: matrix_quat(rotation),
+        }
+    }
+
+    /// Pose error of spec §6 of `self` against the desired pose `target`.
+    ///
+    /// `e = [p_des − p ; log(R_des Rᵀ)]` (m and rad, inertial frame).
+    #[must_use]
+    pub fn error_to(&self, target: &Pose) -> PoseError {
+        let [pw, px, py, pz] = self.quat_wxyz;
+        let conj = [pw, -px, -py, -pz];
+        let dq = quat_mul(target.quat_wxyz, conj);
+        let rot = quat_log(dq);
+        let [tx, ty, tz] = target.position;
+        let [sx, sy, sz] = self.position;
+        PoseError {
+            position: [tx - sx, ty - sy, tz - sz],
+            rotation: [rot.x, rot.y, rot.z],
+        }
+    }
+}
+
+/// The 6-vector pose error `e` of spec §6 (eq. 16 with a rotation vector).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PoseError {
+    /// `p_des − p` (m, inertial frame).
+    pub position: [f64; 3],
+    /// `log(R_des Rᵀ)`, rotation vector (rad, inertial frame).
+    pub rotation: [f64; 3],
+}
+
+impl PoseError {
+    /// `f = ‖e‖₂`, the planner's cost (metres and radians mixed, as in the paper).
+    #[must_use]
+    pub fn norm(&self) -> f64 {
+        let [a, b, c] = self.position;
+        let [d, e, f] = self.rotation;
+        libm::sqrt(a * a + b * b + c * c + d * d + e * e + f * f)
+    }
+
+    /// Position error ‖p_des − p‖ (m).
+    #[must_use]
+    pub fn position_m(&self) -> f64 {
+        let [a, b, c] = self.position;
+        libm::sqrt(a * a + b * b + c * c)
+    }
+
+    /// Orientation error: the angle of `R_des Rᵀ` (degrees, a report quantity).
+    #[must_use]
+    pub fn orientation_deg(&self) -> f64 {
+        let [d, e, f] = self.rotation;
+        libm::sqrt(d * d + e * e + f * f).to_degrees()
+    }
+
+    /// The error as a 6-vector `[dp; dθ]`.
+    #[must_use]
+    pub fn to_array(&self) -> [f64; 6] {
+        let [a, b, c] = self.position;
+        let [d, e, f] = self.rotation;
+        [a, b, c, d, e, f]
+    }
+}
+
+/// Symmetric 3×3 matrix stored as its six distinct entries.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sym3 {
+    /// Entry (1,1).
+    pub xx: f64,
+    /// Entry (2,2).
+    pub yy: f64,
+    /// Entry (3,3).
+    pub zz: f64,
+    /// Entries (1,2) = (2,1).
+    pub xy: f64,
+    /// Entries (1,3) = (3,1).
+    pub xz: f64,
+    /// Entries (2,3) = (3,2).
+    pub yz: f64,
+}
+
+impl Sym3 {
+    /// The zero matrix.
+    pub const ZERO: Self = Self {
+        xx: 0.0,
+        yy: 0.0,
+        zz: 0.0,
+        xy: 0.0,
+        xz: 0.0,
+        yz: 0.0,
+    };
+
+    /// `R·S·Rᵀ` (e.g. an inertia tensor expressed in a rotated frame).
+    #[inline]
+    #[must_use]
+    pub fn rotated(&self, r: &Mat3) -> Self {
+        // M = R·S, then (M·Rᵀ)_ab = row_a(M)·row_b(R) for the six entries a ≤ b.
+        let m = r * self.to_matrix();
+        Self {
+            xx: m.m11 * r.m11 + m.m12 * r.m12 + m.m13 * r.m13,
+            yy: m.m21 * r.m21 + m.m22 * r.m22 + m.m23 * r.m23,
+            zz: m.m31 * r.m31 + m.m32 * r.m32 + m.m33 * r.m33,
+            xy: m.m11 * r.m21 + m.m12 * r.m22 + m.m13 * r.m23,
+            xz: m.m11 * r.m31 + m.m12 * r.m32 + m.m13 * r.m33,
+            yz: m.m21 * r.m31 + m.m22 * r.m32 + m.m23 * r.m33,
+        }
+    }
+
+    /// Inertia of a point mass `m` (kg) at offset `d` (m): `m(|d|²I − d dᵀ)`.
+    #[inline]
+    #[must_use]
+    pub fn point_mass(m: f64, d: &Vec3) -> Self {
+        let (x, y, z) = (d.x, d.y, d.z);
+        Self {
+            xx: m * (y * y + z * z),
+            yy: m * (x * x + z * z),
+            zz: m * (x * x + y * y),
+            xy: -m * x * y,
+            xz: -m * x * z,
+            yz: -m * y * z,
+        }
+    }
+
+    /// Entry-wise sum.
+    #[inline]
+    #[must_use]
+    pub fn add(&self, o: &Self) -> Self {
+        Self {
+            xx: self.xx + o.xx,
+            yy: self.yy + o.yy,
+            zz: self.zz + o.zz,
+            xy: self.xy + o.xy,
+            xz: self.xz + o.xz,
+            yz: self.yz + o.yz,
+        }
+    }
+
+    /// `S·v`.
+    #[inline]
+    #[must_use]
+    pub fn mul_vec(&self, v: &Vec3) -> Vec3 {
+        Vec3::new(
+            self.xx * v.x + self.xy * v.y + self.xz * v.z,
+            self.xy * v.x + self.yy * v.y + self.yz * v.z,
+            self.xz * v.x + self.yz * v.y + self.zz * v.z,
+        )
+    }
+
+    /// The full 3×3 matrix.
+    #[must_use]
+    pub fn to_matrix(&self) -> Mat3 {
+        Mat3::new(
+            self.xx, self.xy, self.xz, self.xy, self.yy, self.yz, self.xz, self.yz, self.zz,
+        )
+    }
+
+    /// Symmetric part `(M + Mᵀ)/2` of a full matrix.
+    #[must_use]
+    pub fn from_matrix(m: &Mat3) -> Self {
+        Self {
+            xx: m.m11,
+            yy: m.m22,
+            zz: m.m33,
+            xy: 0.5 * (m.m12 + m.m21),
+            xz: 0.5 * (m.m13 + m.m31),
+            yz: 0.5 * (m.m23 + m.m32),
+        }
+    }
+
+    /// Trace.
+    #[inline]
+    #[must_use]
+    pub fn trace(&self) -> f64 {
+        self.xx + self.yy + self.zz
+    }
+
+    /// `LDLᵀ` factorisation if every pivot is positive and finite, else `None`.
+    #[inline]
+    #[must_use]
+    pub fn ldlt(&self) -> Option<Ldlt3> {
+        let d1 = self.xx;
+        if !(d1 > 0.0 && d1.is_finite()) {
+            return None;
+        }
+        let l21 = self.xy / d1;
+        let l31 = self.xz / d1;
+        let d2 = self.yy - l21 * self.xy;
+        if !(d2 > 0.0 && d2.is_finite()) {
+            return None;
+        }
+        let l32 = (self.yz - l31 * self.xy) / d2;
+        let d3 = self.zz - l31 * self.xz - l32 * (self.yz - l31 * self.xy);
+        if !(d3 > 0.0 && d3.is_finite()) {
+            return None;
+        }
+        Some(Ldlt3 {
+            l21,
+            l31,
+            l32,
+            inv_d: [1.0 / d1, 1.0 / d2, 1.0 / d3],
+            det: d1 * d2 * d3,
+        })
+    }
+
+    /// Sum of the three principal 2×2 minors (second invariant, `Σ λ_i λ_j`).
+    #[inline]
+    #[must_use]
+    pub fn minor_sum(&self) -> f64 {
+        (self.xx * self.yy - self.xy * self.xy)
+            + (self.xx * self.zz - self.xz * self.xz)
+            + (self.yy * self.zz - self.yz * self.yz)
+    }
+}
+
+/// `LDLᵀ` factors of a symmetric positive-definite 3×3 matrix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ldlt3 {
+    l21: f64,
+    l31: f64,
+    l32: f64,
+    inv_d: [f64; 3],
+    det: f64,
+}
+
+impl Ldlt3 {
+    /// Solves `S·x = b`.
+    #[inline]
+    #[must_use]
+    pub fn solve(&self, b: &Vec3) -> Vec3 {
+        let [i1, i2, i3] = self.inv_d;
+        let y1 = b.x;
+        let y2 = b.y - self.l21 * y1;
+        let y3 = b.z - self.l31 * y1 - self.l32 * y2;
+        let x3 = y3 * i3;
+        let x2 = y2 * i2 - self.l32 * x3;
+        let x1 = y1 * i1 - self.l21 * x2 - self.l31 * x3;
+        Vec3::new(x1, x2, x3)
+    }
+
+    /// Determinant (product of the pivots).
+    #[must_use]
+    pub fn det(&self) -> f64 {
+        self.det
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+
+    fn close(a: &Mat3, b: &Mat3, tol: f64) -> bool {
+        (a - b).abs().max() <= tol
+    }
+
+    #[test]
+    fn rpy_roundtrip_and_orthonormal() {
+        for rpy in [
+            [0.1, -0.4, 2.5],
+            [-3.0, 1.2, 0.3],
+            [0.0, 0.0, 0.0],
+            [1.0, -1.5, -2.0],
+        ] {
+            let r = rpy_matrix(rpy);
+            assert!(close(&(r * r.transpose()), &Mat3::identity(), 1e-15));
+            assert!((r.determinant() - 1.0).abs() < 1e-15);
+            let back = rpy_matrix(matrix_rpy(&r));
+            assert!(close(&r, &back, 1e-15));
+        }
+        assert_eq!(rpy_matrix([0.0; 3]), Mat3::identity());
+    }
+
+    #[test]
+    fn rpy_matches_urdf_composition() {
+        // URDF: R = Rz(y) Ry(p) Rx(r), each an elementary rotation.
+        let (r, p, y) = (0.3, -0.7, 1.9);
+        let rx = quat_matrix([libm::cos(r / 2.0), libm::sin(r / 2.0), 0.0, 0.0]);
+        let ry = quat_matrix([libm::cos(p / 2.0), 0.0, libm::sin(p / 2.0), 0.0]);
+        let rz = quat_matrix([libm::cos(y / 2.0), 0.0, 0.0, libm::sin(y / 2.0)]);
+        assert!(close(&rpy_matrix([r, p, y]), &(rz * ry * rx), 1e-15));
+    }
+
+    #[test]
+    fn frame_with_z_is_rotation_onto_axis() {
+        for k in [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(1.0, 2.0, -3.0).normalize(),
+            Vec3::new(-0.2, 0.1, -0.97).normalize(),
+        ] {
+            let q = frame_with_z(&k);
+            assert!(close(&(q * q.transpose()), &Mat3::identity(), 1e-15));
+            assert!((q.determinant() - 1.0).abs() < 1e-15);
+            assert!((q * Vec3::z() - k).norm() < 1e-16);
+        }
+        assert_eq!(frame_with_z(&Vec3::z()), Mat3::identity());
+    }
+
+    #[test]
+    fn quaternion_roundtrip() {
+        for rpy in [
+            [0.1, -0.4, 2.5],
+            [3.1, 0.2, -3.1],
+            [0.0, 0.0, 3.1],
+            [2.0, 1.5, 0.0],
+        ] {
+            let r = rpy_matrix(rpy);
+            let q = matrix_quat(&r);
+            assert!(q[0] >= 0.0);
+            assert!(close(&quat_matrix(q), &r, 1e-15));
+        }
+    }
+
+    #[test]
+    fn log_inverts_exp() {
+        for t in [
+            Vec3::new(0.3, -0.2, 1.0),
+            Vec3::new(1e-9, 0.0, 2e-9),
+            Vec3::new(0.0, 3.0, 0.0),
+        ] {
+            let back = quat_log(quat_exp(&t));
+            assert!((back - t).norm() < 1e-15 * (1.0 + t.norm()));
+        }
+        assert!((quat_angle(quat_exp(&Vec3::new(0.0, 0.5, 0.0))) - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn pose_error_is_rotation_vector() {
+        let a = Pose::from_parts(&Vec3::new(1.0, 2.0, 3.0), &rpy_matrix([0.1, 0.2, 0.3]));
+        let delta = Vec3::new(0.01, -0.02, 0.03);
+        // target = exp(delta) applied on the left: R_des = Exp(δ) R.
+        let r_des = quat_matrix(quat_exp(&delta)) * rpy_matrix([0.1, 0.2, 0.3]);
+        let b = Pose::from_parts(&Vec3::new(1.5, 2.0, 3.0), &r_des);
+        let e = a.error_to(&b);
+        assert!((Vec3::from(e.rotation) - delta).norm() < 1e-15);
+        assert_eq!(e.position, [0.5, 0.0, 0.0]);
+        assert!((e.norm() - libm::sqrt(0.25 + delta.norm_squared())).abs() < 1e-15);
+    }
+
+    #[test]
+    fn sym3_rotation_and_solve() {
+        let s = Sym3 {
+            xx: 4.0,
+            yy: 3.0,
+            zz: 2.0,
+            xy: 0.5,
+            xz: -0.3,
+            yz: 0.2,
+        };
+        let r = rpy_matrix([0.4, -0.1, 0.9]);
+        let full = r * s.to_matrix() * r.transpose();
+        assert!(close(&s.rotated(&r).to_matrix(), &full, 1e-14));
+        let f = s.ldlt().unwrap();
+        let b = Vec3::new(1.0, -2.0, 0.5);
+        let x = f.solve(&b);
+        assert!((s.to_matrix() * x - b).norm() < 1e-14);
+        assert!((f.det() - s.to_matrix().determinant()).abs() < 1e-13);
+        let m = s.to_matrix();
+        let minors = m.m11 * m.m22 - m.m12 * m.m21 + m.m11 * m.m33 - m.m13 * m.m31 + m.m22 * m.m33
+            - m.m23 * m.m32;
+        assert!((s.minor_sum() - minors).abs() < 1e-14);
+        let indefinite = Sym3 {
+            xx: 1.0,
+            yy: 1.0,
+            zz: 1.0,
+            xy: 2.0,
+            ..Sym3::ZERO
+        };
+        assert!(indefinite.ldlt().is_none());
+    }
+}

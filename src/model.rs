@@ -1,0 +1,480 @@
+//! The robot description: bodies, joints and limits, from plain data, validated once.
+//!
+//! Owns [`RobotDesc`] (plain, URDF-shaped data a user or a loader fills in), [`Robot`] (the
+//! validated, immutable model the rest of the core reads) and [`CHASER7`], the reference
+//! robot of the specification (`spec/chaser7.urdf`).
+//!
+//! Conventions (URDF): joint `i` sits at `origin` (xyz in m, rpy in rad) in the frame of
+//! body `i − 1` (body 0 is the base) and rotates body `i` about `axis` (a unit vector in the
+//! joint frame). A body's mass properties are given at its inertial origin (xyz, rpy) in its
+//! own frame; the inertia tensor (kg m²) is about the centre of mass in the inertial frame.
+//! The end effector is a massless frame fixed to the last link.
+//!
+//! Internally each link is carried in a *joint frame* whose `z` axis is the joint axis, so
+//! that forward kinematics needs one constant rotation and one rotation about `z` per joint;
+//! see [`crate::kinematics`].
+
+use crate::error::{Body, Error, Param};
+use crate::geometry::{Mat3, Sym3, Vec3, frame_with_z, rpy_matrix};
+
+/// Tolerance on the norm of unit vectors and quaternions in inputs: `|‖v‖ − 1| ≤ 1e-6`.
+pub const UNIT_TOLERANCE: f64 = 1e-6;
+
+/// A rigid transform as URDF writes it: translation (m) then roll-pitch-yaw (rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Origin {
+    /// Translation (m) in the parent frame.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw (rad): `R = Rz(yaw)·Ry(pitch)·Rx(roll)`.
+    pub rpy: [f64; 3],
+}
+
+impl Origin {
+    /// The identity transform.
+    pub const IDENTITY: Self = Self {
+        xyz: [0.0; 3],
+        rpy: [0.0; 3],
+    };
+
+    /// Rotation part as a matrix.
+    #[must_use]
+    pub fn rotation(&self) -> Mat3 {
+        rpy_matrix(self.rpy)
+    }
+
+    /// Translation part as a vector (m).
+    #[must_use]
+    pub fn translation(&self) -> Vec3 {
+        Vec3::from(self.xyz)
+    }
+
+    fn is_finite(&self) -> bool {
+        self.xyz
+            .iter()
+            .chain(self.rpy.iter())
+            .all(|v| v.is_finite())
+    }
+}
+
+/// Inertia tensor entries (kg m²) about the centre of mass, URDF names.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(missing_docs)]
+pub struct Inertia {
+    pub ixx: f64,
+    pub ixy: f64,
+    pub ixz: f64,
+    pub iyy: f64,
+    pub iyz: f64,
+    pub izz: f64,
+}
+
+impl Inertia {
+    /// Diagonal tensor `diag(ixx, iyy, izz)`.
+    #[must_use]
+    pub const fn diagonal(ixx: f64, iyy: f64, izz: f64) -> Self {
+        Self {
+            ixx,
+            ixy: 0.0,
+            ixz: 0.0,
+            iyy,
+            iyz: 0.0,
+            izz,
+        }
+    }
+
+    /// As a symmetric matrix.
+    #[must_use]
+    pub fn to_sym(&self) -> Sym3 {
+        Sym3 {
+            xx: self.ixx,
+            yy: self.iyy,
+            zz: self.izz,
+            xy: self.ixy,
+            xz: self.ixz,
+            yz: self.iyz,
+        }
+    }
+}
+
+/// Mass properties of one rigid body, URDF `<inertial>`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BodyDesc {
+    /// Mass (kg), > 0.
+    pub mass: f64,
+    /// Inertial frame in the body frame: centre of mass (m) and tensor axes (rad).
+    pub inertial: Origin,
+    /// Inertia about the centre of mass in the inertial frame (kg m²), positive definite.
+    pub inertia: Inertia,
+}
+
+/// One revolute joint, URDF `<joint type="revolute">`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct JointDesc {
+    /// Joint frame in the parent body's frame.
+    pub origin: Origin,
+    /// Rotation axis in the joint frame, unit length (within [`UNIT_TOLERANCE`]).
+    pub axis: [f64; 3],
+    /// Lower position limit (rad).
+    pub lower: f64,
+    /// Upper position limit (rad), > `lower`.
+    pub upper: f64,
+    /// Velocity limit (rad/s), > 0.
+    pub velocity: f64,
+}
+
+/// Plain-data description of a free-floating base with an `N`-joint serial arm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RobotDesc<const N: usize> {
+    /// The free-floating base (body 0). Its frame is the inertial frame at `t = 0`.
+    pub base: BodyDesc,
+    /// Joints `1..=N`, base to tip.
+    pub joints: [JointDesc; N],
+    /// Links `1..=N`; link `i` is moved by joint `i`.
+    pub links: [BodyDesc; N],
+    /// End-effector frame in link `N`'s frame (massless).
+    pub end_effector: Origin,
+}
+
+/// A link, expressed in its joint frame (`z` = joint axis).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Segment {
+    /// Rotation from the previous joint frame to this joint frame at `q = 0`:
+    /// `Q_{i−1}ᵀ · R_origin · Q_i`.
+    pub(crate) rot: Mat3,
+    /// Joint position in the previous joint frame (m): `Q_{i−1}ᵀ · xyz`.
+    pub(crate) offset: Vec3,
+    /// Link mass (kg).
+    pub(crate) mass: f64,
+    /// Link centre of mass in the joint frame (m).
+    pub(crate) com: Vec3,
+    /// Link inertia about its centre of mass, joint-frame axes (kg m²).
+    pub(crate) inertia: Sym3,
+}
+
+/// A validated robot model. Immutable; construct with [`Robot::new`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot<const N: usize> {
+    desc: RobotDesc<N>,
+    pub(crate) segments: [Segment; N],
+    /// Base mass (kg).
+    pub(crate) base_mass: f64,
+    /// Base centre of mass in the base frame (m).
+    pub(crate) base_com: Vec3,
+    /// Base inertia about its centre of mass, base-frame axes (kg m²).
+    pub(crate) base_inertia: Sym3,
+    /// End-effector position in joint frame `N` (m).
+    pub(crate) ee_offset: Vec3,
+    /// End-effector attitude relative to joint frame `N`.
+    pub(crate) ee_rot: Mat3,
+    total_mass: f64,
+    lower: [f64; N],
+    upper: [f64; N],
+    qd_max: f64,
+}
+
+impl<const N: usize> Robot<N> {
+    /// Validates `desc` and precomputes the joint frames.
+    ///
+    /// # Errors
+    /// A typed error naming the first bad parameter: non-finite numbers, non-positive
+    /// masses or velocity limits, inertia tensors that are not positive definite, axes that
+    /// are not unit vectors, `lower ≥ upper`.
+    ///
+    /// ```
+    /// use reactionless::{CHASER7, Robot};
+    /// let robot = Robot::new(&CHASER7).unwrap();
+    /// assert!((robot.total_mass() - 1093.0).abs() < 1e-12);
+    /// ```
+    pub fn new(desc: &RobotDesc<N>) -> Result<Self, Error> {
+        const { assert!(N >= 1 && N <= 255, "joint count must be in 1..=255") };
+        let (base_mass, base_com, base_inertia) = validate_body(&desc.base, Body::Base)?;
+        let mut segments = [Segment {
+            rot: Mat3::identity(),
+            offset: Vec3::zeros(),
+            mass: 0.0,
+            com: Vec3::zeros(),
+            inertia: Sym3::ZERO,
+        }; N];
+        let mut lower = [0.0; N];
+        let mut upper = [0.0; N];
+        let mut qd_max = f64::INFINITY;
+        let mut total_mass = base_mass;
+        // Q_{i−1}: the joint frame of the previous body (the base frame for joint 1).
+        let mut q_prev = Mat3::identity();
+        let items = desc
+            .joints
+            .iter()
+            .zip(desc.links.iter())
+            .zip(segments.iter_mut())
+            .zip(lower.iter_mut().zip(upper.iter_mut()));
+        for (i, (((joint, link), seg), (lo, up))) in items.enumerate() {
+            let j = (i + 1) as u8;
+            let axis = validate_joint(joint, j)?;
+            let (mass, com, inertia) = validate_body(link, Body::Link(j))?;
+            let q_this = frame_with_z(&axis);
+            let q_this_t = q_this.transpose();
+            let q_prev_t = q_prev.transpose();
+            *seg = Segment {
+                rot: q_prev_t * joint.origin.rotation() * q_this,
+                offset: q_prev_t * joint.origin.translation(),
+                mass,
+                com: q_this_t * com,
+                inertia: inertia.rotated(&q_this_t),
+            };
+            *lo = joint.lower;
+            *up = joint.upper;
+            qd_max = qd_max.min(joint.velocity);
+            total_mass += mass;
+            q_prev = q_this;
+        }
+        if !desc.end_effector.is_finite() {
+            return Err(Error::NotFinite(Param::EndEffector));
+        }
+        let q_last_t = q_prev.transpose();
+        Ok(Self {
+            desc: *desc,
+            segments,
+            base_mass,
+            base_com,
+            base_inertia,
+            ee_offset: q_last_t * desc.end_effector.translation(),
+            ee_rot: q_last_t * desc.end_effector.rotation(),
+            total_mass,
+            lower,
+            upper,
+            qd_max,
+        })
+    }
+
+    /// The description this model was built from.
+    #[must_use]
+    pub fn desc(&self) -> &RobotDesc<N> {
+        &self.desc
+    }
+
+    /// Total mass of base and links (kg).
+    #[must_use]
+    pub fn total_mass(&self) -> f64 {
+        self.total_mass
+    }
+
+    /// Lower joint limits (rad).
+    #[must_use]
+    pub fn lower(&self) -> &[f64; N] {
+        &self.lower
+    }
+
+    /// Upper joint limits (rad).
+    #[must_use]
+    pub fn upper(&self) -> &[f64; N] {
+        &self.upper
+    }
+
+    /// `q̇_max`: the smallest joint velocity limit (rad/s), the bound of eq. 14.
+    #[must_use]
+    pub fn qd_max(&self) -> f64 {
+        self.qd_max
+    }
+
+    /// Constraint violation Φ of eq. 23 for joint extrema `q_min`, `q_max` (rad).
+    #[must_use]
+    pub fn violation(&self, q_min: &[f64; N], q_max: &[f64; N]) -> f64 {
+        let mut phi = 0.0;
+        for (((lo, hi), mn), mx) in self
+            .lower
+            .iter()
+            .zip(self.upper.iter())
+            .zip(q_min.iter())
+            .zip(q_max.iter())
+        {
+            phi += (mx - hi).max(0.0) + (lo - mn).max(0.0);
+        }
+        phi
+    }
+}
+
+fn validate_body(b: &BodyDesc, body: Body) -> Result<(f64, Vec3, Sym3), Error> {
+    if !b.mass.is_finite() {
+        return Err(Error::NotFinite(Param::Mass(body)));
+    }
+    if b.mass <= 0.0 {
+        return Err(Error::NotPositive(Param::Mass(body)));
+    }
+    if !b.inertial.is_finite() {
+        return Err(Error::NotFinite(Param::CenterOfMass(body)));
+    }
+    let i = b.inertia.to_sym();
+    let entries = [i.xx, i.yy, i.zz, i.xy, i.xz, i.yz];
+    if !entries.iter().all(|v| v.is_finite()) {
+        return Err(Error::NotFinite(Param::Inertia(body)));
+    }
+    if i.ldlt().is_none() {
+        return Err(Error::InertiaNotPositiveDefinite(body));
+    }
+    let r = b.inertial.rotation();
+    Ok((b.mass, b.inertial.translation(), i.rotated(&r)))
+}
+
+fn validate_joint(j: &JointDesc, index: u8) -> Result<Vec3, Error> {
+    if !j.origin.is_finite() {
+        return Err(Error::NotFinite(Param::JointOrigin(index)));
+    }
+    let axis = Vec3::from(j.axis);
+    if !j.axis.iter().all(|v| v.is_finite()) {
+        return Err(Error::NotFinite(Param::JointAxis(index)));
+    }
+    let norm = axis.norm();
+    // Components are finite here, so `norm` is finite or +∞ (never NaN).
+    if (norm - 1.0).abs() > UNIT_TOLERANCE {
+        return Err(Error::AxisNotUnit(index));
+    }
+    if !j.lower.is_finite() {
+        return Err(Error::NotFinite(Param::LowerLimit(index)));
+    }
+    if !j.upper.is_finite() {
+        return Err(Error::NotFinite(Param::UpperLimit(index)));
+    }
+    if j.lower >= j.upper {
+        return Err(Error::LimitsInverted(index));
+    }
+    if !j.velocity.is_finite() {
+        return Err(Error::NotFinite(Param::VelocityLimit(index)));
+    }
+    if j.velocity <= 0.0 {
+        return Err(Error::NotPositive(Param::VelocityLimit(index)));
+    }
+    Ok(axis / norm)
+}
+
+const fn body(mass: f64, com_x: f64, inertia: Inertia) -> BodyDesc {
+    BodyDesc {
+        mass,
+        inertial: Origin {
+            xyz: [com_x, 0.0, 0.0],
+            rpy: [0.0; 3],
+        },
+        inertia,
+    }
+}
+
+const fn joint(x: f64, z: f64, axis: [f64; 3], lower: f64, upper: f64) -> JointDesc {
+    JointDesc {
+        origin: Origin {
+            xyz: [x, 0.0, z],
+            rpy: [0.0; 3],
+        },
+        axis,
+        lower,
+        upper,
+        velocity: 0.2617993878,
+    }
+}
+
+const AX_X: [f64; 3] = [1.0, 0.0, 0.0];
+const AX_Z: [f64; 3] = [0.0, 0.0, 1.0];
+const WIDE_LO: f64 = -4.8869219056;
+const WIDE_HI: f64 = 0.1745329252;
+const LIM: f64 = 1.7453292520;
+
+/// The reference chaser of the specification: a 7-DOF arm on a 1022 kg base.
+///
+/// Mass properties and link lengths from Table 1 of the paper; joint layout (alternating
+/// roll/yaw axes, links along +x) as in `spec/chaser7.urdf`, which host-sim loads to the
+/// same bits (tested).
+pub const CHASER7: RobotDesc<7> = RobotDesc {
+    base: body(1022.0, 0.0, Inertia::diagonal(612.69, 328.61, 657.44)),
+    joints: [
+        joint(1.0, 0.5, AX_X, WIDE_LO, WIDE_HI),
+        joint(0.113, 0.0, AX_Z, -LIM, LIM),
+        joint(1.325, 0.0, AX_X, -LIM, LIM),
+        joint(0.08, 0.0, AX_Z, -LIM, LIM),
+        joint(0.926, 0.0, AX_X, WIDE_LO, WIDE_HI),
+        joint(0.08, 0.0, AX_Z, WIDE_LO, WIDE_HI),
+        joint(0.25, 0.0, AX_X, -LIM, LIM),
+    ],
+    links: [
+        body(10.0, 0.0565, Inertia::diagonal(0.038, 0.047, 0.025)),
+        body(25.0, 0.6625, Inertia::diagonal(0.056, 5.85, 5.84)),
+        body(5.0, 0.04, Inertia::diagonal(0.009, 0.017, 0.017)),
+        body(15.0, 0.463, Inertia::diagonal(0.029, 1.74, 1.74)),
+        body(3.0, 0.04, Inertia::diagonal(0.008, 0.005, 0.008)),
+        body(10.0, 0.125, Inertia::diagonal(0.026, 0.084, 0.076)),
+        body(3.0, 0.02, Inertia::diagonal(0.0036, 0.0036, 0.0034)),
+    ],
+    end_effector: Origin {
+        xyz: [0.04, 0.0, 0.0],
+        rpy: [0.0; 3],
+    },
+};
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+
+    #[test]
+    fn chaser7_is_valid() {
+        let r = Robot::new(&CHASER7).unwrap();
+        assert_eq!(
+            r.total_mass(),
+            1022.0 + 10.0 + 25.0 + 5.0 + 15.0 + 3.0 + 10.0 + 3.0
+        );
+        assert_eq!(r.qd_max(), 0.2617993878);
+    }
+
+    #[test]
+    fn each_bad_parameter_is_named() {
+        let mut d = CHASER7;
+        d.links[2].mass = -1.0;
+        assert_eq!(
+            Robot::new(&d),
+            Err(Error::NotPositive(Param::Mass(Body::Link(3))))
+        );
+        let mut d = CHASER7;
+        d.base.inertia.ixy = 1000.0;
+        assert_eq!(
+            Robot::new(&d),
+            Err(Error::InertiaNotPositiveDefinite(Body::Base))
+        );
+        let mut d = CHASER7;
+        d.joints[4].axis = [0.0, 0.0, 0.0];
+        assert_eq!(Robot::new(&d), Err(Error::AxisNotUnit(5)));
+        let mut d = CHASER7;
+        d.joints[0].lower = 1.0;
+        assert_eq!(Robot::new(&d), Err(Error::LimitsInverted(1)));
+        let mut d = CHASER7;
+        d.joints[6].velocity = 0.0;
+        assert_eq!(
+            Robot::new(&d),
+            Err(Error::NotPositive(Param::VelocityLimit(7)))
+        );
+        let mut d = CHASER7;
+        d.joints[1].origin.rpy[2] = f64::NAN;
+        assert_eq!(Robot::new(&d), Err(Error::NotFinite(Param::JointOrigin(2))));
+        let mut d = CHASER7;
+        d.links[6].inertia.izz = f64::INFINITY;
+        assert_eq!(
+            Robot::new(&d),
+            Err(Error::NotFinite(Param::Inertia(Body::Link(7))))
+        );
+        let mut d = CHASER7;
+        d.end_effector.xyz[0] = f64::NAN;
+        assert_eq!(Robot::new(&d), Err(Error::NotFinite(Param::EndEffector)));
+    }
+
+    #[test]
+    fn violation_is_eq_23() {
+        let r = Robot::new(&CHASER7).unwrap();
+        let mut lo = *r.lower();
+        let mut hi = *r.upper();
+        assert_eq!(r.violation(&lo, &hi), 0.0);
+        lo[1] -= 0.25;
+        hi[3] += 0.5;
+        assert!((r.violation(&lo, &hi) - 0.75).abs() < 1e-15);
+    }
+}

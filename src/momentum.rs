@@ -1,0 +1,171 @@
+//! Reduced momentum matrices of eq. 1 (spec §2): the system inertia `H~b`, the coupling
+//! inertia `H~bm`, the base angular velocity they imply, and the generalized Jacobian.
+//!
+//! Owns the composite-body recursion. With `d_i = c_i − r_g` and `e_j = p_j − r_g`,
+//! column `j` of `H~bm` is
+//!
+//! `Σ_{i≥j} [I_i k_j + m_i d_i × (k_j × (d_i − e_j))] = Ī_j k_j − (Σ_{i≥j} m_i d_i) × (k_j × e_j)`
+//!
+//! where `Ī_j = Σ_{i≥j} [I_i + m_i(|d_i|² 1 − d_i d_iᵀ)]` is the inertia of the subtree
+//! `j..N` about `r_g`. One backward pass accumulates `Ī_j` and the first moment, so the
+//! cost is O(N); `H~b` is `Ī_1` plus the base. All quantities are in the frame of the
+//! [`Frames`] they come from (the base frame); units kg m².
+
+use crate::error::Error;
+use crate::geometry::{Sym3, Vec3};
+use crate::kinematics::Frames;
+use crate::model::Robot;
+use nalgebra::{SMatrix, Vector6};
+
+/// `H~b` and `H~bm` at one configuration, base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Momentum<const N: usize> {
+    /// Columns of the coupling inertia `H~bm` (3×N, kg m²).
+    pub hbm: [Vec3; N],
+    /// System inertia about the system CoM, `H~b` (3×3, kg m²).
+    pub hb: Sym3,
+}
+
+/// Mass and first moment about `r_g` of the subtree `j..N` (kg, kg m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Subtree {
+    mass: f64,
+    moment: Vec3,
+}
+
+/// The backward pass: writes `H~bm` columns and subtree data, returns `Ī_1` (kg m²).
+#[inline(always)]
+fn backward_pass<const N: usize>(
+    robot: &Robot<N>,
+    frames: &Frames<N>,
+    hbm: &mut [Vec3; N],
+    subtrees: &mut [Subtree; N],
+) -> Sym3 {
+    let rg = frames.com;
+    let mut inertia = Sym3::ZERO;
+    let mut moment = Vec3::zeros();
+    let mut mass = 0.0;
+    let items = hbm
+        .iter_mut()
+        .zip(subtrees.iter_mut())
+        .zip(frames.links.iter())
+        .zip(robot.segments.iter())
+        .rev();
+    for (((col, sub), link), seg) in items {
+        let d = link.com - rg;
+        inertia = inertia
+            .add(&seg.inertia.rotated(&link.rot))
+            .add(&Sym3::point_mass(seg.mass, &d));
+        moment += d * seg.mass;
+        mass += seg.mass;
+        let k = link.axis();
+        let e = link.joint - rg;
+        *col = inertia.mul_vec(&k) - moment.cross(&k.cross(&e));
+        *sub = Subtree { mass, moment };
+    }
+    inertia
+}
+
+impl<const N: usize> Momentum<N> {
+    /// `H~b` and `H~bm` for the configuration of `frames`.
+    ///
+    /// ```
+    /// use reactionless::{CHASER7, Frames, Momentum, Robot};
+    /// let robot = Robot::new(&CHASER7).unwrap();
+    /// let q0 = [-90f64, 45.0, 0.0, 80.0, -90.0, -45.0, -10.0].map(f64::to_radians);
+    /// let m = Momentum::new(&robot, &Frames::new(&robot, &q0));
+    /// assert!((m.hbm[0].x - 64.21266294418797).abs() < 1e-9); // spec §8
+    /// ```
+    #[must_use]
+    pub fn new(robot: &Robot<N>, frames: &Frames<N>) -> Self {
+        let mut hbm = [Vec3::zeros(); N];
+        let mut subtrees = [Subtree {
+            mass: 0.0,
+            moment: Vec3::zeros(),
+        }; N];
+        let arm = backward_pass(robot, frames, &mut hbm, &mut subtrees);
+        let d0 = frames.base_com - frames.com;
+        let hb = arm
+            .add(&robot.base_inertia)
+            .add(&Sym3::point_mass(robot.base_mass, &d0));
+        Self { hbm, hb }
+    }
+
+    /// `H~bm q̇` (kg m²/s): the coupling angular momentum of joint rates `qd` (rad/s).
+    #[must_use]
+    pub fn coupling_momentum(&self, qd: &[f64; N]) -> Vec3 {
+        let mut h = Vec3::zeros();
+        for (col, v) in self.hbm.iter().zip(qd.iter()) {
+            h += col * *v;
+        }
+        h
+    }
+
+    /// Base angular velocity `w₀ = −H~b⁻¹ H~bm q̇` (rad/s, base frame) under zero momentum.
+    ///
+    /// # Errors
+    /// [`Error::SingularInertia`] if `H~b` is not positive definite (never for a validated
+    /// model with finite `q`).
+    pub fn base_angular_velocity(&self, qd: &[f64; N]) -> Result<Vec3, Error> {
+        let f = self.hb.ldlt().ok_or(Error::SingularInertia)?;
+        Ok(-f.solve(&self.coupling_momentum(qd)))
+    }
+}
+
+/// `H~bm` only: the hot path of the rollout (columns, kg m²).
+#[must_use]
+pub fn coupling<const N: usize>(robot: &Robot<N>, frames: &Frames<N>) -> [Vec3; N] {
+    let mut hbm = [Vec3::zeros(); N];
+    let mut subtrees = [Subtree {
+        mass: 0.0,
+        moment: Vec3::zeros(),
+    }; N];
+    let _ = backward_pass(robot, frames, &mut hbm, &mut subtrees);
+    hbm
+}
+
+/// The generalized Jacobian `J_G` (6×N): end-effector linear (m/s, rows 1–3) and angular
+/// (rad/s, rows 4–6) velocity per joint rate under zero momentum, base frame.
+///
+/// With `w₀ = −H~b⁻¹ H~bm q̇` and the system CoM fixed, column `j` is
+/// `[k_j × (p_E − p_j) − k_j × (Σ_{i≥j} m_i(c_i − p_j))/M − (p_E − r_g) × w₀_j ; k_j + w₀_j]`
+/// with `w₀_j = −H~b⁻¹ H~bm[:, j]`.
+///
+/// # Errors
+/// [`Error::SingularInertia`] if `H~b` is not positive definite.
+pub fn generalized_jacobian<const N: usize>(
+    robot: &Robot<N>,
+    frames: &Frames<N>,
+) -> Result<SMatrix<f64, 6, N>, Error> {
+    let mut hbm = [Vec3::zeros(); N];
+    let mut subtrees = [Subtree {
+        mass: 0.0,
+        moment: Vec3::zeros(),
+    }; N];
+    let arm = backward_pass(robot, frames, &mut hbm, &mut subtrees);
+    let d0 = frames.base_com - frames.com;
+    let hb = arm
+        .add(&robot.base_inertia)
+        .add(&Sym3::point_mass(robot.base_mass, &d0));
+    let hb = hb.ldlt().ok_or(Error::SingularInertia)?;
+    let rg = frames.com;
+    let pe = frames.ee_position;
+    let total = robot.total_mass();
+    let mut jg = SMatrix::<f64, 6, N>::zeros();
+    let items = jg
+        .column_iter_mut()
+        .zip(frames.links.iter())
+        .zip(hbm.iter())
+        .zip(subtrees.iter());
+    for (((mut col, link), h), sub) in items {
+        let k = link.axis();
+        let e = link.joint - rg;
+        // Σ_{i≥j} m_i (c_i − p_j) = Σ m_i d_i − M_j e_j.
+        let lever = sub.moment - e * sub.mass;
+        let w0 = -hb.solve(h);
+        let v = k.cross(&(pe - link.joint)) - k.cross(&lever) / total - (pe - rg).cross(&w0);
+        let w = k + w0;
+        col.copy_from(&Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z));
+    }
+    Ok(jg)
+}

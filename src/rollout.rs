@@ -1,0 +1,302 @@
+//! The rollout: integrating one η into a joint trajectory with the reference
+//! discretization (eq. 19, spec §5), resumable step by step.
+//!
+//! Owns [`Rollout`] (the mutable state), [`Sample`] / [`Sink`] (each step's `(t, q, q̇)`
+//! handed to the caller, never stored) and [`Outcome`] (what a finished rollout returns).
+//! For `s = 0 … S−1`, `t_s = s·dt`:
+//!
+//! `q̇_s = Σ_i (β_i(t_s)/g) N_s[:, i]`,  `q_{s+1} = q_s + dt·q̇_s`,  `N_{s+1} = MGS(P(q_{s+1}) N_s)`.
+//!
+//! [`Rollout::advance`] performs at most `budget` integration steps per call; a rollout
+//! driven in slices of any size is bit-identical to one driven in a single call, because the
+//! state carried between calls is exactly the loop state. Per integration step the work is
+//! one forward kinematics, one `H~bm`, one basis transport and one sink call; the call that
+//! completes the last step also emits the final sample and evaluates the end pose (one more
+//! forward kinematics).
+
+use crate::error::Error;
+use crate::geometry::{Pose, PoseError};
+use crate::kinematics::{Frames, IDENTITY_WXYZ};
+use crate::momentum::coupling;
+use crate::nullspace::Basis;
+use crate::task::{Task, rank_error};
+use crate::trajectory::TimeLaw;
+
+/// One point of the trajectory.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sample<const N: usize> {
+    /// Sample index `s` (`0..=S`).
+    pub step: u32,
+    /// Time `t_s` (s); the last sample is exactly `t_f`.
+    pub t: f64,
+    /// Joint positions `q_s` (rad).
+    pub q: [f64; N],
+    /// Joint rates `q̇_s` (rad/s), constant over `[t_s, t_{s+1})`; zero at both ends.
+    pub qd: [f64; N],
+}
+
+/// Receives each sample of a rollout as it is computed.
+///
+/// Implemented for every `FnMut(&Sample<N>)` and for `()` (discard).
+pub trait Sink<const N: usize> {
+    /// Called once per sample, in order `s = 0, 1, …, S`.
+    fn sample(&mut self, s: &Sample<N>);
+}
+
+impl<const N: usize, F: FnMut(&Sample<N>)> Sink<N> for F {
+    fn sample(&mut self, s: &Sample<N>) {
+        self(s);
+    }
+}
+
+impl<const N: usize> Sink<N> for () {
+    fn sample(&mut self, _: &Sample<N>) {}
+}
+
+/// What a finished rollout returns.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Outcome<const N: usize> {
+    /// Final configuration `q_S` (rad).
+    pub q_final: [f64; N],
+    /// Smallest value of each joint over all samples (rad).
+    pub joint_min: [f64; N],
+    /// Largest value of each joint over all samples (rad).
+    pub joint_max: [f64; N],
+    /// Constraint violation Φ of eq. 23 (rad); 0 when the limits hold.
+    pub phi: f64,
+    /// End-effector pose at `t_f`, planner model (base attitude identity, base position
+    /// from CoM conservation).
+    pub end_pose: Pose,
+    /// Pose error `e` against the task target (spec §6).
+    pub error: PoseError,
+    /// `f = ‖e‖₂`.
+    pub f: f64,
+    /// Largest `|q̇_r|` over all samples and joints (rad/s).
+    pub max_abs_qd: f64,
+    /// `g` of eq. 14 for the η as given.
+    pub g: f64,
+}
+
+/// Where a rollout is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Progress<const N: usize> {
+    /// `step` of `steps` integration steps are done.
+    Running {
+        /// Integration steps completed.
+        step: u32,
+        /// Total integration steps `S`.
+        steps: u32,
+    },
+    /// Finished.
+    Done(Outcome<N>),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase<const N: usize> {
+    Running,
+    Done(Outcome<N>),
+    Failed(Error),
+}
+
+/// The mutable state of one rollout. Create with [`Rollout::new`], drive with
+/// [`Rollout::advance`] against the same [`Task`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rollout<const N: usize, const K: usize> {
+    law: TimeLaw<K>,
+    step: u32,
+    q: [f64; N],
+    basis: Basis<N, K>,
+    q_min: [f64; N],
+    q_max: [f64; N],
+    max_abs_qd: f64,
+    phase: Phase<N>,
+}
+
+impl<const N: usize, const K: usize> Rollout<N, K> {
+    /// A rollout of `eta` (pairs `(a_i, b_i)`) for `task`, at `t = 0`.
+    ///
+    /// # Errors
+    /// η invalid (non-finite, all zero); see [`TimeLaw::new`].
+    pub fn new(task: &Task<N, K>, eta: &[[f64; 2]; K]) -> Result<Self, Error> {
+        let law = TimeLaw::new(eta, task.motion(), task.robot().qd_max())?;
+        let q = *task.start();
+        Ok(Self {
+            law,
+            step: 0,
+            q,
+            basis: *task.initial_basis(),
+            q_min: q,
+            q_max: q,
+            max_abs_qd: 0.0,
+            phase: Phase::Running,
+        })
+    }
+
+    /// The time law in use.
+    #[must_use]
+    pub fn law(&self) -> &TimeLaw<K> {
+        &self.law
+    }
+
+    /// Integration steps completed.
+    #[must_use]
+    pub fn step(&self) -> u32 {
+        self.step
+    }
+
+    /// The null-space basis at the current configuration.
+    #[must_use]
+    pub fn basis(&self) -> &Basis<N, K> {
+        &self.basis
+    }
+
+    /// The current configuration (rad).
+    #[must_use]
+    pub fn q(&self) -> &[f64; N] {
+        &self.q
+    }
+
+    /// Advances by at most `budget` integration steps, handing each sample to `sink`.
+    ///
+    /// Returns [`Progress::Running`] while steps remain and [`Progress::Done`] once the
+    /// last step is done (again on every later call, without further work).
+    ///
+    /// # Errors
+    /// [`Error::RankLoss`] or [`Error::NonFiniteState`] at the step where it happened; the
+    /// rollout then stays failed and returns the same error on every later call.
+    ///
+    /// ```
+    /// use reactionless::{CHASER7, Motion, Pose, Progress, Robot, Rollout, Task};
+    /// let robot = Robot::new(&CHASER7).unwrap();
+    /// let q0 = [-90f64, 45.0, 0.0, 80.0, -90.0, -45.0, -10.0].map(f64::to_radians);
+    /// let target = Pose { position: [2.0, 0.1, -1.4], quat_wxyz: [1.0, 0.0, 0.0, 0.0] };
+    /// let task: Task<7, 4> = Task::new(robot, q0, target, Motion::new(30.0, 0.01, 1).unwrap()).unwrap();
+    /// let eta = [[3.14771, 0.809316], [1.12249, 0.754006], [4.7352, 0.406031], [-4.1572, 4.29895]];
+    /// let mut r = Rollout::new(&task, &eta).unwrap();
+    /// let mut samples = 0;
+    /// let mut count = |_: &reactionless::Sample<7>| samples += 1;
+    /// while let Progress::Running { .. } = r.advance(&task, 500, &mut count).unwrap() {}
+    /// assert_eq!(samples, 3001);
+    /// ```
+    pub fn advance<S: Sink<N>>(
+        &mut self,
+        task: &Task<N, K>,
+        budget: u32,
+        sink: &mut S,
+    ) -> Result<Progress<N>, Error> {
+        match self.phase {
+            Phase::Done(o) => return Ok(Progress::Done(o)),
+            Phase::Failed(e) => return Err(e),
+            Phase::Running => {}
+        }
+        match self.run(task, budget, sink) {
+            Ok(p) => {
+                if let Progress::Done(o) = p {
+                    self.phase = Phase::Done(o);
+                }
+                Ok(p)
+            }
+            Err(e) => {
+                self.phase = Phase::Failed(e);
+                Err(e)
+            }
+        }
+    }
+
+    fn run<S: Sink<N>>(
+        &mut self,
+        task: &Task<N, K>,
+        budget: u32,
+        sink: &mut S,
+    ) -> Result<Progress<N>, Error> {
+        let motion = task.motion();
+        let robot = task.robot();
+        let steps = motion.steps();
+        let dt = motion.dt();
+        let end = self.step.saturating_add(budget).min(steps);
+        while self.step < end {
+            let t = motion.time(self.step);
+            let qd = self.basis.combine(&self.law.alpha(t));
+            self.record(t, &qd, sink);
+            for (q, v) in self.q.iter_mut().zip(qd.iter()) {
+                *q += dt * v;
+            }
+            self.step += 1;
+            if !self.q.iter().all(|v| v.is_finite()) {
+                return Err(Error::NonFiniteState { step: self.step });
+            }
+            let frames = Frames::new(robot, &self.q);
+            self.basis = self
+                .basis
+                .transported(&coupling(robot, &frames))
+                .map_err(rank_error(self.step))?;
+        }
+        if self.step < steps {
+            return Ok(Progress::Running {
+                step: self.step,
+                steps,
+            });
+        }
+        // Final sample at t_f: β(t_f) = 0 exactly, so q̇_S = 0.
+        let qd = self.basis.combine(&self.law.alpha(motion.tf()));
+        self.record(motion.tf(), &qd, sink);
+        let end_pose = task.end_pose(&self.q, IDENTITY_WXYZ);
+        let error = end_pose.error_to(task.target());
+        Ok(Progress::Done(Outcome {
+            q_final: self.q,
+            joint_min: self.q_min,
+            joint_max: self.q_max,
+            phi: robot.violation(&self.q_min, &self.q_max),
+            end_pose,
+            error,
+            f: error.norm(),
+            max_abs_qd: self.max_abs_qd,
+            g: self.law.g(),
+        }))
+    }
+
+    /// Emits sample `self.step` and folds it into the extrema.
+    #[inline]
+    fn record<S: Sink<N>>(&mut self, t: f64, qd: &[f64; N], sink: &mut S) {
+        sink.sample(&Sample {
+            step: self.step,
+            t,
+            q: self.q,
+            qd: *qd,
+        });
+        for ((q, lo), hi) in self
+            .q
+            .iter()
+            .zip(self.q_min.iter_mut())
+            .zip(self.q_max.iter_mut())
+        {
+            *lo = lo.min(*q);
+            *hi = hi.max(*q);
+        }
+        for v in qd {
+            self.max_abs_qd = self.max_abs_qd.max(libm::fabs(*v));
+        }
+    }
+}
+
+impl<const N: usize, const K: usize> Task<N, K> {
+    /// Runs a whole rollout of `eta` (pairs `(a_i, b_i)`) in one call.
+    ///
+    /// # Errors
+    /// As [`Rollout::new`] and [`Rollout::advance`].
+    pub fn rollout<S: Sink<N>>(
+        &self,
+        eta: &[[f64; 2]; K],
+        sink: &mut S,
+    ) -> Result<Outcome<N>, Error> {
+        let mut r = Rollout::new(self, eta)?;
+        match r.advance(self, self.motion().steps(), sink)? {
+            Progress::Done(o) => Ok(o),
+            // Unreachable: the budget covers every step.
+            Progress::Running { step, .. } => Err(Error::NonFiniteState { step }),
+        }
+    }
+}

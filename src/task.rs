@@ -1,0 +1,151 @@
+//! A planning task: robot, start configuration, target pose and motion grid, validated once.
+//!
+//! Owns [`Task`] and everything that depends only on the task (not on η): the start
+//! kinematics, the system CoM at `t = 0` (which never moves, spec §1), the start pose of
+//! the end effector, and the initial null-space basis `N₀` shared by every rollout.
+//! The inertial frame is the base frame at `t = 0`.
+
+use crate::error::{Error, Param, RankLoss};
+use crate::geometry::{Pose, Vec3, canonical, normalized};
+use crate::kinematics::{Frames, IDENTITY_WXYZ};
+use crate::model::{Robot, UNIT_TOLERANCE};
+use crate::momentum::coupling;
+use crate::nullspace::{Basis, Dims};
+use crate::trajectory::Motion;
+
+/// Everything a rollout or a plan needs besides η. Immutable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Task<const N: usize, const K: usize> {
+    robot: Robot<N>,
+    q0: [f64; N],
+    target: Pose,
+    motion: Motion,
+    com0: Vec3,
+    start_pose: Pose,
+    basis0: Basis<N, K>,
+}
+
+impl<const N: usize, const K: usize> Task<N, K> {
+    /// Validates the start `q0` (rad) against the limits and the target (position in m,
+    /// unit quaternion `[w,x,y,z]` within [`UNIT_TOLERANCE`], re-normalised), and computes
+    /// the start frames and the initial basis.
+    ///
+    /// # Errors
+    /// Non-finite values, a start outside the joint limits, a non-unit quaternion, or
+    /// [`Error::RankLoss`] at step 0 if `H~bm(q0)` is rank-deficient.
+    ///
+    /// ```
+    /// use reactionless::{CHASER7, Motion, Pose, Robot, Task};
+    /// let robot = Robot::new(&CHASER7).unwrap();
+    /// let q0 = [-90f64, 45.0, 0.0, 80.0, -90.0, -45.0, -10.0].map(f64::to_radians);
+    /// let target = Pose { position: [2.0, 0.1, -1.4], quat_wxyz: [1.0, 0.0, 0.0, 0.0] };
+    /// let task: Task<7, 4> = Task::new(robot, q0, target, Motion::new(30.0, 0.01, 1).unwrap()).unwrap();
+    /// assert!((task.start_pose().position[0] - 1.411848994172882).abs() < 1e-12);
+    /// ```
+    pub fn new(robot: Robot<N>, q0: [f64; N], target: Pose, motion: Motion) -> Result<Self, Error> {
+        let () = Dims::<N, K>::VALID;
+        let limits = robot.lower().iter().zip(robot.upper().iter());
+        for (i, (q, (lo, hi))) in q0.iter().zip(limits).enumerate() {
+            let j = (i + 1) as u8;
+            if !q.is_finite() {
+                return Err(Error::NotFinite(Param::Start(j)));
+            }
+            if q < lo || q > hi {
+                return Err(Error::StartOutsideLimits(j));
+            }
+        }
+        let target = validate_pose(&target)?;
+        let frames = Frames::new(&robot, &q0);
+        let basis0 = Basis::initial(&coupling(&robot, &frames))
+            .map_err(|cause| Error::RankLoss { step: 0, cause })?;
+        let com0 = frames.com;
+        let start_pose = frames.end_pose(&com0, IDENTITY_WXYZ);
+        Ok(Self {
+            robot,
+            q0,
+            target,
+            motion,
+            com0,
+            start_pose,
+            basis0,
+        })
+    }
+
+    /// The robot model.
+    #[must_use]
+    pub fn robot(&self) -> &Robot<N> {
+        &self.robot
+    }
+
+    /// Start configuration (rad).
+    #[must_use]
+    pub fn start(&self) -> &[f64; N] {
+        &self.q0
+    }
+
+    /// Target end-effector pose (inertial frame; quaternion normalised, `w ≥ 0`).
+    #[must_use]
+    pub fn target(&self) -> &Pose {
+        &self.target
+    }
+
+    /// The time grid.
+    #[must_use]
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
+
+    /// System CoM (m, inertial frame), fixed for the whole motion.
+    #[must_use]
+    pub fn com0(&self) -> Vec3 {
+        self.com0
+    }
+
+    /// End-effector pose at the start (inertial frame).
+    #[must_use]
+    pub fn start_pose(&self) -> &Pose {
+        &self.start_pose
+    }
+
+    /// The initial null-space basis `N₀ = MGS(P(q₀)E)`.
+    #[must_use]
+    pub fn initial_basis(&self) -> &Basis<N, K> {
+        &self.basis0
+    }
+
+    /// End-effector pose (inertial frame) at configuration `q` with base attitude
+    /// `base_wxyz` and the base placed by CoM conservation.
+    #[must_use]
+    pub fn end_pose(&self, q: &[f64; N], base_wxyz: [f64; 4]) -> Pose {
+        Frames::new(&self.robot, q).end_pose(&self.com0, base_wxyz)
+    }
+}
+
+/// Checks a pose: finite numbers, quaternion within [`UNIT_TOLERANCE`] of unit length.
+/// Returns it normalised with `w ≥ 0`.
+///
+/// # Errors
+/// [`Error::NotFinite`] for the position or quaternion, [`Error::QuaternionNotUnit`].
+pub fn validate_pose(p: &Pose) -> Result<Pose, Error> {
+    if !p.position.iter().all(|v| v.is_finite()) {
+        return Err(Error::NotFinite(Param::TargetPosition));
+    }
+    if !p.quat_wxyz.iter().all(|v| v.is_finite()) {
+        return Err(Error::NotFinite(Param::TargetAttitude));
+    }
+    let [w, x, y, z] = p.quat_wxyz;
+    let norm = libm::sqrt(w * w + x * x + y * y + z * z);
+    // Components are finite here, so `norm` is finite or +∞ (never NaN).
+    if libm::fabs(norm - 1.0) > UNIT_TOLERANCE {
+        return Err(Error::QuaternionNotUnit);
+    }
+    Ok(Pose {
+        position: p.position,
+        quat_wxyz: canonical(normalized(p.quat_wxyz)),
+    })
+}
+
+/// Maps a null-space failure at `step` to the error type.
+pub(crate) fn rank_error(step: u32) -> impl Fn(RankLoss) -> Error {
+    move |cause| Error::RankLoss { step, cause }
+}

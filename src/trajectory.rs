@@ -1,0 +1,390 @@
+//! The time law of eqs. 4–14 (spec §4) and the time grid of the rollout (spec §5).
+//!
+//! Owns [`Motion`] (duration `t_f`, step `dt`, degree `n`, step count `S = t_f/dt`) and
+//! [`TimeLaw`]: from `η = [a₁, b₁, …, a_K, b_K]` the polynomials
+//!
+//! `β_i(t) = a_i t^{n+2} + b_i t^{n+1} + c_i t^n`, `c_i = −(a_i t_f² + b_i t_f)` (eq. 10),
+//!
+//! evaluated in the equal factored form `β_i(t) = tⁿ (t − t_f)(a_i (t + t_f) + b_i)`, which
+//! is exactly zero at `t = 0` and `t = t_f` (eq. 7 holds to the bit). `β_i,max` is the
+//! largest `|β_i|` over the critical points in `[0, t_f]` (eqs. 11–13) and
+//! `g = Σ β_i,max / q̇_max` (eq. 14), so `|q̇_r(t)| ≤ q̇_max` for every joint.
+//!
+//! Only η's direction matters. η is first scaled by an exact power of two so that its
+//! largest component lies in `[1, 2)`: results are bit-identical to the unscaled η for any
+//! ordinary magnitude and extreme magnitudes (1e±300, subnormals) work.
+
+use crate::error::{Error, Param};
+
+/// Largest accepted time-law degree `n`.
+pub const MAX_DEGREE: u32 = 8;
+/// Largest accepted step count `S = t_f/dt`.
+pub const MAX_STEPS: u32 = 1_000_000;
+
+/// Duration and time grid of a motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Motion {
+    tf: f64,
+    dt: f64,
+    n: u32,
+    steps: u32,
+}
+
+impl Motion {
+    /// A motion of duration `tf_s` (s) integrated with step `dt_s` (s), time-law degree `n`.
+    ///
+    /// # Errors
+    /// Non-finite or non-positive `tf_s`/`dt_s`, `t_f/dt` not a whole number (relative
+    /// tolerance 1e-9) or above [`MAX_STEPS`], `n` outside `1..=`[`MAX_DEGREE`].
+    ///
+    /// ```
+    /// let m = reactionless::Motion::new(30.0, 0.01, 1).unwrap();
+    /// assert_eq!(m.steps(), 3000);
+    /// assert!(reactionless::Motion::new(30.0, 0.007, 1).is_err());
+    /// ```
+    pub fn new(tf_s: f64, dt_s: f64, n: u32) -> Result<Self, Error> {
+        for (v, p) in [(tf_s, Param::FinalTime), (dt_s, Param::TimeStep)] {
+            if !v.is_finite() {
+                return Err(Error::NotFinite(p));
+            }
+            if v <= 0.0 {
+                return Err(Error::NotPositive(p));
+            }
+        }
+        if !(1..=MAX_DEGREE).contains(&n) {
+            return Err(Error::DegreeOutOfRange);
+        }
+        let ratio = tf_s / dt_s;
+        // tf, dt are finite and positive, so `ratio` is positive or +∞ (never NaN).
+        if ratio >= f64::from(MAX_STEPS) + 0.5 {
+            return Err(Error::TooManySteps);
+        }
+        let steps = libm::round(ratio);
+        if steps < 1.0 || libm::fabs(steps - ratio) > 1e-9 * ratio {
+            return Err(Error::StepsNotInteger);
+        }
+        Ok(Self {
+            tf: tf_s,
+            dt: dt_s,
+            n,
+            steps: steps as u32,
+        })
+    }
+
+    /// Duration `t_f` (s).
+    #[must_use]
+    pub fn tf(&self) -> f64 {
+        self.tf
+    }
+
+    /// Integration step `dt` (s).
+    #[must_use]
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// Time-law degree `n`.
+    #[must_use]
+    pub fn degree(&self) -> u32 {
+        self.n
+    }
+
+    /// Number of integration steps `S`.
+    #[must_use]
+    pub fn steps(&self) -> u32 {
+        self.steps
+    }
+
+    /// Sample time `t_s = s·dt` (s); the last sample (`s ≥ S`) is exactly `t_f`.
+    #[must_use]
+    pub fn time(&self, s: u32) -> f64 {
+        if s >= self.steps {
+            self.tf
+        } else {
+            f64::from(s) * self.dt
+        }
+    }
+}
+
+/// Parses the flat `η = [a₁, b₁, …, a_K, b_K]` (length `2K`) into pairs.
+///
+/// # Errors
+/// [`Error::WrongLength`] unless `eta.len() == 2K`.
+pub fn eta_pairs<const K: usize>(eta: &[f64]) -> Result<[[f64; 2]; K], Error> {
+    let mut out = [[0.0; 2]; K];
+    if eta.len() != 2 * K {
+        return Err(Error::WrongLength {
+            expected: (2 * K) as u16,
+            got: eta.len().min(u16::MAX as usize) as u16,
+        });
+    }
+    for (pair, chunk) in out.iter_mut().zip(eta.chunks_exact(2)) {
+        if let [a, b] = chunk {
+            *pair = [*a, *b];
+        }
+    }
+    Ok(out)
+}
+
+/// `tⁿ` by repeated multiplication (`n ≤ MAX_DEGREE`).
+#[inline]
+fn powi(t: f64, n: u32) -> f64 {
+    let mut p = t;
+    for _ in 1..n.min(MAX_DEGREE) {
+        p *= t;
+    }
+    p
+}
+
+/// The velocity profile of one η: `β_i(t)`, `β_i,max` and `g` (eqs. 5–14).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TimeLaw<const K: usize> {
+    /// Normalised `(a_i, b_i)`.
+    ab: [[f64; 2]; K],
+    tf: f64,
+    n: u32,
+    beta_max: [f64; K],
+    /// `1/g` for the normalised η (s·rad⁻¹ scale).
+    inv_g: f64,
+    /// `g` for the normalised η.
+    g: f64,
+    /// η was multiplied by `2^scale_exp`.
+    scale_exp: i32,
+}
+
+impl<const K: usize> TimeLaw<K> {
+    /// The time law of `eta` (pairs `(a_i, b_i)`) for `motion`, with joint rate bound
+    /// `qd_max` (rad/s).
+    ///
+    /// # Errors
+    /// [`Error::NotFinite`] for a non-finite component, [`Error::EtaZero`] if all are zero,
+    /// [`Error::NotPositive`] / [`Error::NotFinite`] for a bad `qd_max`.
+    ///
+    /// ```
+    /// use reactionless::{Motion, TimeLaw};
+    /// let law = TimeLaw::new(&[[1.0, 0.0]], &Motion::new(2.0, 0.01, 1).unwrap(), 1.0).unwrap();
+    /// // β = t(t−2)(t+2): |β| peaks at t = 2/√3 with value 16/(3√3).
+    /// assert!((law.g() - 16.0 / (3.0 * 3f64.sqrt())).abs() < 1e-14);
+    /// ```
+    pub fn new(eta: &[[f64; 2]; K], motion: &Motion, qd_max: f64) -> Result<Self, Error> {
+        if !qd_max.is_finite() {
+            return Err(Error::NotFinite(Param::VelocityLimit(0)));
+        }
+        if qd_max <= 0.0 {
+            return Err(Error::NotPositive(Param::VelocityLimit(0)));
+        }
+        let mut largest = 0.0f64;
+        for (i, v) in eta.iter().flatten().enumerate() {
+            if !v.is_finite() {
+                return Err(Error::NotFinite(Param::Eta((i + 1) as u8)));
+            }
+            largest = largest.max(libm::fabs(*v));
+        }
+        if largest == 0.0 {
+            return Err(Error::EtaZero);
+        }
+        // largest = m·2^e with m in [0.5, 1): scale by 2^(1−e) to bring it into [1, 2).
+        let (_, e) = libm::frexp(largest);
+        let scale_exp = 1 - e;
+        let ab = eta.map(|[a, b]| [libm::scalbn(a, scale_exp), libm::scalbn(b, scale_exp)]);
+        let tf = motion.tf();
+        let n = motion.degree();
+        let mut beta_max = [0.0; K];
+        let mut sum = 0.0;
+        for (bm, &[a, b]) in beta_max.iter_mut().zip(ab.iter()) {
+            *bm = peak(a, b, tf, n);
+            sum += *bm;
+        }
+        let g = sum / qd_max;
+        if !(g > 0.0 && g.is_finite()) {
+            // Every β_i ≡ 0 up to rounding (cannot happen for a non-zero η; kept as a guard).
+            return Err(Error::EtaZero);
+        }
+        Ok(Self {
+            ab,
+            tf,
+            n,
+            beta_max,
+            inv_g: 1.0 / g,
+            g,
+            scale_exp,
+        })
+    }
+
+    /// `β_i(t)` for the η as given (not normalised).
+    #[must_use]
+    pub fn beta(&self, t: f64) -> [f64; K] {
+        let tn = powi(t, self.n);
+        self.ab.map(|[a, b]| {
+            libm::scalbn(
+                tn * (t - self.tf) * (a * (t + self.tf) + b),
+                -self.scale_exp,
+            )
+        })
+    }
+
+    /// `α_i(t) = β_i(t)/g` (rad/s): the weights of the basis vectors in `q̇` (eq. 4 with unit
+    /// columns). Scale-invariant in η.
+    #[inline]
+    #[must_use]
+    pub fn alpha(&self, t: f64) -> [f64; K] {
+        let tn = powi(t, self.n);
+        let (w, inv_g) = (t - self.tf, self.inv_g);
+        self.ab
+            .map(|[a, b]| tn * w * (a * (t + self.tf) + b) * inv_g)
+    }
+
+    /// `β_i,max` for the η as given.
+    #[must_use]
+    pub fn beta_max(&self) -> [f64; K] {
+        self.beta_max.map(|b| libm::scalbn(b, -self.scale_exp))
+    }
+
+    /// `g` of eq. 14 for the η as given (may overflow to ∞ for η near `f64::MAX`).
+    #[must_use]
+    pub fn g(&self) -> f64 {
+        libm::scalbn(self.g, -self.scale_exp)
+    }
+}
+
+/// `max |β|` over the critical points in `[0, t_f]` of `β(t) = tⁿ(t − t_f)(a(t + t_f) + b)`.
+///
+/// `β' = t^{n−1}[(n+2)a t² + (n+1)b t + n c]` (eq. 11); the roots of the bracket (eq. 13)
+/// are taken with the cancellation-free form `r₁ = q/A`, `r₂ = C/q`.
+fn peak(a: f64, b: f64, tf: f64, n: u32) -> f64 {
+    let nf = f64::from(n);
+    let c = -(a * tf * tf + b * tf);
+    let qa = (nf + 2.0) * a;
+    let qb = (nf + 1.0) * b;
+    let qc = nf * c;
+    // Δ ≥ 0 by Rolle's theorem; clamp rounding noise.
+    let disc = (qb * qb - 4.0 * qa * qc).max(0.0);
+    let q = -0.5 * (qb + libm::copysign(libm::sqrt(disc), qb));
+    let beta = |t: f64| libm::fabs(powi(t, n) * (t - tf) * (a * (t + tf) + b));
+    let mut best = 0.0f64;
+    if qa != 0.0 {
+        let r = q / qa;
+        if (0.0..=tf).contains(&r) {
+            best = best.max(beta(r));
+        }
+    }
+    if q != 0.0 {
+        let r = qc / q;
+        if (0.0..=tf).contains(&r) {
+            best = best.max(beta(r));
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+
+    /// β_max by dense sampling, for comparison.
+    fn sampled_peak(a: f64, b: f64, tf: f64, n: u32) -> f64 {
+        let mut best = 0.0f64;
+        for i in 0..=200_000 {
+            let t = tf * f64::from(i) / 200_000.0;
+            let c = -(a * tf * tf + b * tf);
+            let v = a * t.powi(n as i32 + 2) + b * t.powi(n as i32 + 1) + c * t.powi(n as i32);
+            best = best.max(v.abs());
+        }
+        best
+    }
+
+    #[test]
+    fn peak_matches_sampling_eqs_11_to_13() {
+        for &(a, b) in &[
+            (3.14771, 0.809316),
+            (-4.1572, 4.29895),
+            (0.0, 1.0),
+            (1.0, -40.0),
+            (-2.0, 55.0),
+            (1e-9, 3.0),
+        ] {
+            for n in 1..=4 {
+                let tf = 30.0;
+                let exact = peak(a, b, tf, n);
+                let sampled = sampled_peak(a, b, tf, n);
+                assert!(exact >= sampled * (1.0 - 1e-12), "{a} {b} {n}");
+                assert!(
+                    (exact - sampled) / exact < 1e-6,
+                    "{a} {b} {n}: {exact} {sampled}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn factored_form_equals_eq_5() {
+        let (a, b, tf) = (1.3, -2.7, 4.0);
+        let law = TimeLaw::<1>::new(&[[a, b]], &Motion::new(tf, 0.01, 2).unwrap(), 1.0).unwrap();
+        let c = -(a * tf * tf + b * tf);
+        for t in [0.3f64, 1.7, 3.99] {
+            let eq5 = a * t.powi(4) + b * t.powi(3) + c * t.powi(2);
+            assert!((law.beta(t)[0] - eq5).abs() < 1e-12);
+        }
+        assert_eq!(law.beta(0.0)[0], 0.0);
+        assert_eq!(law.beta(tf)[0], 0.0);
+    }
+
+    #[test]
+    fn scaling_eta_by_powers_of_two_is_exact() {
+        let m = Motion::new(30.0, 0.01, 1).unwrap();
+        let eta = [[3.14771, 0.809316], [1.12249, 0.754006]];
+        let base = TimeLaw::new(&eta, &m, 0.26).unwrap();
+        for e in [-1000, -300, -1, 1, 7, 900] {
+            let scaled = eta.map(|p| p.map(|v| libm::scalbn(v, e)));
+            let law = TimeLaw::new(&scaled, &m, 0.26).unwrap();
+            for t in [0.0, 0.01, 12.34, 29.99, 30.0] {
+                assert_eq!(law.alpha(t), base.alpha(t));
+            }
+        }
+        assert_eq!(
+            TimeLaw::new(&[[0.0, 0.0], [0.0, 0.0]], &m, 0.26),
+            Err(Error::EtaZero)
+        );
+        assert_eq!(
+            TimeLaw::new(&[[1.0, f64::NAN], [0.0, 0.0]], &m, 0.26),
+            Err(Error::NotFinite(Param::Eta(2)))
+        );
+        // Subnormals and huge values are direction-only too.
+        let tiny = TimeLaw::new(&[[5e-324, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
+        let one = TimeLaw::new(&[[1.0, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
+        assert_eq!(tiny.alpha(7.0), one.alpha(7.0));
+        let huge = TimeLaw::new(&[[libm::scalbn(1.0, 1023), 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
+        assert_eq!(huge.alpha(7.0), one.alpha(7.0));
+        let max = TimeLaw::new(&[[f64::MAX, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
+        assert!((max.alpha(7.0)[0] - one.alpha(7.0)[0]).abs() < 1e-15);
+        assert!(max.g().is_infinite());
+    }
+
+    #[test]
+    fn motion_validation() {
+        assert_eq!(Motion::new(30.0, 0.01, 1).unwrap().time(3000), 30.0);
+        assert_eq!(
+            Motion::new(0.0, 0.01, 1),
+            Err(Error::NotPositive(Param::FinalTime))
+        );
+        assert_eq!(
+            Motion::new(1.0, -0.01, 1),
+            Err(Error::NotPositive(Param::TimeStep))
+        );
+        assert_eq!(
+            Motion::new(f64::NAN, 0.01, 1),
+            Err(Error::NotFinite(Param::FinalTime))
+        );
+        assert_eq!(Motion::new(1.0, 0.3, 1), Err(Error::StepsNotInteger));
+        assert_eq!(Motion::new(1e6, 1e-3, 1), Err(Error::TooManySteps));
+        assert_eq!(Motion::new(1.0, 0.01, 0), Err(Error::DegreeOutOfRange));
+        assert_eq!(
+            Motion::new(1.0, 0.01, MAX_DEGREE + 1),
+            Err(Error::DegreeOutOfRange)
+        );
+        assert_eq!(Motion::new(1.0, 2.0, 1), Err(Error::StepsNotInteger));
+    }
+}

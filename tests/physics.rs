@@ -1,0 +1,392 @@
+//! Physics of the core against independent computations (REQ: issue 2, "Tests").
+//!
+//! The reference for H~b, H~bm and J_G is a naive forward kinematics written straight from
+//! the URDF conventions with nalgebra isometries, differentiated by central differences.
+#![allow(
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::needless_range_loop,
+    missing_docs
+)]
+
+mod common;
+use common::*;
+use nalgebra::{Isometry3, Matrix3, UnitQuaternion, Vector3};
+use reactionless::{
+    Basis, Frames, Momentum, Motion, Pose, Progress, Robot, RobotDesc, Rollout, Sample, Task,
+    generalized_jacobian,
+};
+
+const H: f64 = 1e-5;
+
+/// Angular momentum about the system CoM of the velocity field `(before → after)/2h`,
+/// from the naive kinematics: Σ I_i ω_i + m_i (c_i − r_g) × ċ_i.
+fn momentum_fd(
+    center: &NaiveFk,
+    before: &NaiveFk,
+    after: &NaiveFk,
+    rot_before: &[Matrix3<f64>],
+    rot_after: &[Matrix3<f64>],
+    rg: &Vector3<f64>,
+) -> Vector3<f64> {
+    let mut l = Vector3::zeros();
+    for i in 0..before.com.len() {
+        let v = (after.com[i] - before.com[i]) / (2.0 * H);
+        // vee((R − Rᵀ)/2) = sin θ · axis: accurate to O(θ³) for the tiny rotations here
+        // (nalgebra's scaled_axis goes through acos of the trace, ill-conditioned near 0).
+        let dr = rot_after[i] * rot_before[i].transpose();
+        let w = Vector3::new(
+            dr[(2, 1)] - dr[(1, 2)],
+            dr[(0, 2)] - dr[(2, 0)],
+            dr[(1, 0)] - dr[(0, 1)],
+        ) / (4.0 * H);
+        l += center.inertia[i] * w + center.mass[i] * (center.com[i] - rg).cross(&v);
+    }
+    l
+}
+
+/// Attitude of each body's inertial frame (base first) from the naive FK: recovered from
+/// the world inertia would be ambiguous, so recompute the chain.
+fn body_rotations<const N: usize>(
+    d: &RobotDesc<N>,
+    q: &[f64; N],
+    base: &Isometry3<f64>,
+) -> Vec<Matrix3<f64>> {
+    let iso = |o: &reactionless::Origin| {
+        Isometry3::from_parts(
+            nalgebra::Translation3::new(o.xyz[0], o.xyz[1], o.xyz[2]),
+            UnitQuaternion::from_euler_angles(o.rpy[0], o.rpy[1], o.rpy[2]),
+        )
+    };
+    let mut out = vec![*base.rotation.to_rotation_matrix().matrix()];
+    let mut t = *base;
+    for k in 0..N {
+        let j = &d.joints[k];
+        let axis = nalgebra::Unit::new_normalize(Vector3::from(j.axis));
+        t = t
+            * iso(&j.origin)
+            * Isometry3::from_parts(
+                nalgebra::Translation3::identity(),
+                UnitQuaternion::from_axis_angle(&axis, q[k]),
+            );
+        out.push(*t.rotation.to_rotation_matrix().matrix());
+    }
+    out
+}
+
+fn rel_err(got: &Vector3<f64>, want: &Vector3<f64>, scale: f64) -> f64 {
+    (got - want).norm() / scale
+}
+
+/// H~bm column j = angular momentum about r_g per unit q̇_j (base held); H~b ω = angular
+/// momentum about r_g when the whole system spins rigidly about r_g with ω.
+fn check_momentum<const N: usize>(d: &RobotDesc<N>, q: &[f64; N]) -> f64 {
+    let robot = Robot::new(d).unwrap();
+    let frames = Frames::new(&robot, q);
+    let m = Momentum::new(&robot, &frames);
+    let id = Isometry3::identity();
+    let center = naive_fk(d, q, &id);
+    let rg = center.system_com();
+    assert!((rg - frames.com).norm() < 1e-12, "system CoM");
+    let hbm_scale = m.hbm.iter().map(|c| c.norm()).fold(0.0, f64::max);
+    let mut worst: f64 = 0.0;
+    for j in 0..N {
+        let (mut qp, mut qm) = (*q, *q);
+        qp[j] += H;
+        qm[j] -= H;
+        let (a, b) = (naive_fk(d, &qm, &id), naive_fk(d, &qp, &id));
+        let (ra, rb) = (body_rotations(d, &qm, &id), body_rotations(d, &qp, &id));
+        let col = momentum_fd(&center, &a, &b, &ra, &rb, &rg);
+        worst = worst.max(rel_err(&m.hbm[j], &col, hbm_scale));
+    }
+    let hb = m.hb.to_matrix();
+    for k in 0..3 {
+        let axis = Vector3::ith_axis(k);
+        // Rigid spin about r_g: base pose = rotation about r_g.
+        let spin = |angle: f64| {
+            let r = UnitQuaternion::from_axis_angle(&axis, angle);
+            Isometry3::from_parts(nalgebra::Translation3::from(rg - r * rg), r)
+        };
+        let (pa, pb) = (spin(-H), spin(H));
+        let (a, b) = (naive_fk(d, q, &pa), naive_fk(d, q, &pb));
+        let (ra, rb) = (body_rotations(d, q, &pa), body_rotations(d, q, &pb));
+        let l = momentum_fd(&center, &a, &b, &ra, &rb, &rg);
+        worst = worst.max(rel_err(&hb.column(k).into_owned(), &l, hb.norm()));
+    }
+    worst
+}
+
+#[test]
+fn momentum_matrices_match_finite_differences_on_random_configurations() {
+    let mut rng = rng(11);
+    let mut worst: f64 = 0.0;
+    let chaser = reactionless::CHASER7;
+    for _ in 0..100 {
+        let q = random_q(&mut rng, &chaser);
+        worst = worst.max(check_momentum(&chaser, &q));
+    }
+    for _ in 0..40 {
+        let d = random_robot::<6>(&mut rng);
+        let q = random_q(&mut rng, &d);
+        worst = worst.max(check_momentum(&d, &q));
+        let d = random_robot::<9>(&mut rng);
+        let q = random_q(&mut rng, &d);
+        worst = worst.max(check_momentum(&d, &q));
+    }
+    assert!(worst <= 1e-6, "worst relative error {worst:e}");
+}
+
+#[test]
+fn forward_kinematics_matches_naive_urdf_chain() {
+    let mut rng = rng(5);
+    for _ in 0..50 {
+        let d = random_robot::<8>(&mut rng);
+        let q = random_q(&mut rng, &d);
+        let robot = Robot::new(&d).unwrap();
+        let f = Frames::new(&robot, &q);
+        let n = naive_fk(&d, &q, &Isometry3::identity());
+        assert!((f.ee_position - n.ee.translation.vector).norm() < 1e-12);
+        let r = UnitQuaternion::from_matrix(&f.ee_rotation);
+        assert!(r.angle_to(&n.ee.rotation) < 1e-12);
+        for i in 0..8 {
+            assert!((f.links[i].com - n.com[i + 1]).norm() < 1e-12);
+        }
+    }
+}
+
+fn planner_pose<const N: usize>(robot: &Robot<N>, q: &[f64; N], com0: &Vector3<f64>) -> Pose {
+    Frames::new(robot, q).end_pose(com0, [1.0, 0.0, 0.0, 0.0])
+}
+
+/// J_G·n = d(end pose)/ds along a null-space direction n, with the base moved by CoM
+/// conservation and not rotating (first order).
+fn check_jacobian<const N: usize, const K: usize>(d: &RobotDesc<N>, q: &[f64; N]) -> f64 {
+    let robot = Robot::new(d).unwrap();
+    let frames = Frames::new(&robot, q);
+    let jg = generalized_jacobian(&robot, &frames).unwrap();
+    let m = Momentum::new(&robot, &frames);
+    let basis = Basis::<N, K>::initial(&m.hbm).unwrap();
+    let com0 = frames.com;
+    let mut worst: f64 = 0.0;
+    for n in basis.columns() {
+        let (mut qp, mut qm) = (*q, *q);
+        for i in 0..N {
+            qp[i] += H * n[i];
+            qm[i] -= H * n[i];
+        }
+        let (a, b) = (
+            planner_pose(&robot, &qm, &com0),
+            planner_pose(&robot, &qp, &com0),
+        );
+        let v = (Vector3::from(b.position) - Vector3::from(a.position)) / (2.0 * H);
+        let e = a.error_to(&b); // log(R_b R_aᵀ)
+        let w = Vector3::from(e.rotation) / (2.0 * H);
+        let nv = nalgebra::SVector::<f64, N>::from(*n);
+        let jn = jg * nv;
+        let scale = jg.norm();
+        worst = worst.max((jn.fixed_rows::<3>(0) - v).norm() / scale);
+        worst = worst.max((jn.fixed_rows::<3>(3) - w).norm() / scale);
+    }
+    worst
+}
+
+#[test]
+fn generalized_jacobian_matches_finite_differences_along_null_space() {
+    let mut rng = rng(7);
+    let mut worst: f64 = 0.0;
+    for _ in 0..50 {
+        let q = random_q(&mut rng, &reactionless::CHASER7);
+        worst = worst.max(check_jacobian::<7, 4>(&reactionless::CHASER7, &q));
+        let d = random_robot::<6>(&mut rng);
+        let q = random_q(&mut rng, &d);
+        worst = worst.max(check_jacobian::<6, 3>(&d, &q));
+    }
+    assert!(worst < 1e-8, "worst relative error {worst:e}");
+}
+
+#[test]
+fn jacobian_angular_rows_predict_base_rotation_for_general_motion() {
+    // Off the null space the base turns: w_E = k + w0 must hold with w0 from H~b, H~bm.
+    // Check w0 against momentum conservation: H~b w0 + H~bm q̇ = 0.
+    let mut rng = rng(9);
+    let robot = robot();
+    for _ in 0..20 {
+        let q = random_q(&mut rng, &reactionless::CHASER7);
+        let qd: [f64; 7] = core::array::from_fn(|_| rand::Rng::random_range(&mut rng, -0.2..0.2));
+        let m = Momentum::new(&robot, &Frames::new(&robot, &q));
+        let w0 = m.base_angular_velocity(&qd).unwrap();
+        let l = m.hb.mul_vec(&w0) + m.coupling_momentum(&qd);
+        assert!(l.norm() < 1e-12 * m.hb.to_matrix().norm(), "L = {l}");
+    }
+}
+
+fn a_times<const N: usize>(hbm: &[Vector3<f64>; N], n: &[f64; N]) -> Vector3<f64> {
+    hbm.iter().zip(n).map(|(c, v)| c * *v).sum()
+}
+
+fn frob<const N: usize>(hbm: &[Vector3<f64>; N]) -> f64 {
+    hbm.iter().map(|c| c.norm_squared()).sum::<f64>().sqrt()
+}
+
+fn check_basis<const N: usize, const K: usize>(hbm: &[Vector3<f64>; N], b: &Basis<N, K>) {
+    let cols = b.columns();
+    for (i, u) in cols.iter().enumerate() {
+        assert!(
+            a_times(hbm, u).norm() <= 1e-12 * frob(hbm),
+            "A n_{i} = {}",
+            a_times(hbm, u).norm()
+        );
+        for (j, v) in cols.iter().enumerate() {
+            let d: f64 = u.iter().zip(v).map(|(a, b)| a * b).sum();
+            let want = if i == j { 1.0 } else { 0.0 };
+            assert!((d - want).abs() <= 1e-12, "NᵀN[{i},{j}] = {d}");
+        }
+    }
+}
+
+#[test]
+fn basis_is_orthonormal_null_space_on_random_configurations() {
+    let mut rng = rng(3);
+    for _ in 0..100 {
+        let q = random_q(&mut rng, &reactionless::CHASER7);
+        let robot = robot();
+        let m = Momentum::new(&robot, &Frames::new(&robot, &q));
+        check_basis(&m.hbm, &Basis::<7, 4>::initial(&m.hbm).unwrap());
+        let d = random_robot::<9>(&mut rng);
+        let q = random_q(&mut rng, &d);
+        let r = Robot::new(&d).unwrap();
+        let m = Momentum::new(&r, &Frames::new(&r, &q));
+        check_basis(&m.hbm, &Basis::<9, 6>::initial(&m.hbm).unwrap());
+    }
+}
+
+/// Along the η̂ rollout: the basis stays an orthonormal null-space basis, moves
+/// continuously (consecutive bases differ by O(dt), no sign flips), and every q̇ is
+/// reactionless (H~bm q̇ = 0).
+#[test]
+fn basis_transport_is_continuous_along_a_rollout() {
+    let task = paper_task();
+    let robot = task.robot().clone();
+    let mut r = Rollout::new(&task, &ETA_HAT).unwrap();
+    let mut prev = *r.basis();
+    let mut worst_step: f64 = 0.0;
+    let mut worst_rns: f64 = 0.0;
+    loop {
+        let mut last: Option<Sample<7>> = None;
+        let p = r
+            .advance(&task, 1, &mut |s: &Sample<7>| last = Some(*s))
+            .unwrap();
+        let s = last.unwrap();
+        let m = Momentum::new(&robot, &Frames::new(&robot, &s.q));
+        let qd_norm = s.qd.iter().map(|v| v * v).sum::<f64>().sqrt();
+        worst_rns =
+            worst_rns.max(a_times(&m.hbm, &s.qd).norm() / (frob(&m.hbm) * qd_norm.max(1e-300)));
+        if let Progress::Done(_) = p {
+            break;
+        }
+        let b = *r.basis();
+        let m = Momentum::new(&robot, &Frames::new(&robot, r.q()));
+        check_basis(&m.hbm, &b);
+        for (u, v) in b.columns().iter().zip(prev.columns()) {
+            let d: f64 = u.iter().zip(v).map(|(a, b)| a * b).sum();
+            assert!(d > 0.99, "column flipped or jumped: cos = {d}");
+            let diff: f64 = u
+                .iter()
+                .zip(v)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            worst_step = worst_step.max(diff);
+        }
+        prev = b;
+    }
+    assert!(
+        worst_step < 1e-3,
+        "largest basis change per step {worst_step:e}"
+    );
+    assert!(
+        worst_rns < 1e-12,
+        "largest |H~bm q̇| / (|H~bm| |q̇|) = {worst_rns:e}"
+    );
+}
+
+/// eq. 7 and eq. 9: q̇ = 0 exactly at both ends, |q̇| ≤ q̇_max at every sample, for η̂ and
+/// random η (also on a random 6-DOF robot).
+#[test]
+fn rates_vanish_at_the_ends_and_respect_the_bound() {
+    let task = paper_task();
+    let mut rng = rng(21);
+    let mut etas = vec![ETA_HAT];
+    for _ in 0..10 {
+        etas.push(core::array::from_fn(|_| {
+            [
+                rand::Rng::random_range(&mut rng, -5.0..5.0),
+                rand::Rng::random_range(&mut rng, -5.0..5.0),
+            ]
+        }));
+    }
+    let qd_max = task.robot().qd_max();
+    for eta in etas {
+        let mut first = None;
+        let mut last = None;
+        let mut worst: f64 = 0.0;
+        let o = task
+            .rollout(&eta, &mut |s: &Sample<7>| {
+                if s.step == 0 {
+                    first = Some(s.qd);
+                }
+                last = Some((s.t, s.qd));
+                worst = worst.max(s.qd.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+            })
+            .unwrap();
+        assert_eq!(first.unwrap(), [0.0; 7]);
+        let (t, qd) = last.unwrap();
+        assert_eq!(t, 30.0);
+        assert_eq!(qd, [0.0; 7]);
+        assert!(worst <= qd_max, "max |qd| {worst} > {qd_max}");
+        assert_eq!(worst, o.max_abs_qd);
+    }
+    let d = random_robot::<6>(&mut rng);
+    let q0 = random_q(&mut rng, &d);
+    let robot = Robot::new(&d).unwrap();
+    let qd_max = robot.qd_max();
+    let target = Pose {
+        position: [0.0; 3],
+        quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+    };
+    let task: Task<6, 3> =
+        Task::new(robot, q0, target, Motion::new(5.0, 0.01, 2).unwrap()).unwrap();
+    let mut worst: f64 = 0.0;
+    task.rollout(
+        &[[1.0, -2.0], [0.5, 0.1], [-3.0, 4.0]],
+        &mut |s: &Sample<6>| {
+            worst = worst.max(s.qd.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+        },
+    )
+    .unwrap();
+    assert!(
+        worst <= qd_max && worst > 0.1 * qd_max,
+        "{worst} vs {qd_max}"
+    );
+}
+
+#[test]
+fn planar_arm_reports_rank_loss_instead_of_nan() {
+    // All axes along z and everything in the xy-plane: H~bm has rank 1.
+    let mut d = reactionless::CHASER7;
+    for j in &mut d.joints {
+        j.axis = [0.0, 0.0, 1.0];
+        j.origin.xyz[2] = 0.0;
+    }
+    let robot = Robot::new(&d).unwrap();
+    let err =
+        Task::<7, 4>::new(robot, [0.0; 7], TARGET, Motion::new(1.0, 0.01, 1).unwrap()).unwrap_err();
+    assert_eq!(
+        err,
+        reactionless::Error::RankLoss {
+            step: 0,
+            cause: reactionless::RankLoss::Coupling
+        }
+    );
+    let _ = Matrix3::<f64>::identity();
+}

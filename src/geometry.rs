@@ -69,12 +69,46 @@ pub fn frame_with_z(k: &Vec3) -> Mat3 {
     Mat3::from_columns(&[u, v, *k])
 }
 
+/// `a·b` for 3×3 matrices, written out (straight-line code for the hot path).
+#[inline(always)]
+pub(crate) fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    Mat3::new(
+        a.m11 * b.m11 + a.m12 * b.m21 + a.m13 * b.m31,
+        a.m11 * b.m12 + a.m12 * b.m22 + a.m13 * b.m32,
+        a.m11 * b.m13 + a.m12 * b.m23 + a.m13 * b.m33,
+        a.m21 * b.m11 + a.m22 * b.m21 + a.m23 * b.m31,
+        a.m21 * b.m12 + a.m22 * b.m22 + a.m23 * b.m32,
+        a.m21 * b.m13 + a.m22 * b.m23 + a.m23 * b.m33,
+        a.m31 * b.m11 + a.m32 * b.m21 + a.m33 * b.m31,
+        a.m31 * b.m12 + a.m32 * b.m22 + a.m33 * b.m32,
+        a.m31 * b.m13 + a.m32 * b.m23 + a.m33 * b.m33,
+    )
+}
+
+/// `a·v` for a 3×3 matrix, written out.
+#[inline(always)]
+pub(crate) fn mat_vec(a: &Mat3, v: &Vec3) -> Vec3 {
+    Vec3::new(
+        a.m11 * v.x + a.m12 * v.y + a.m13 * v.z,
+        a.m21 * v.x + a.m22 * v.y + a.m23 * v.z,
+        a.m31 * v.x + a.m32 * v.y + a.m33 * v.z,
+    )
+}
+
 /// Right-multiplies `r` by `Rz(θ)` given `(sin θ, cos θ)`: only the first two columns change.
 #[inline]
 pub(crate) fn mul_rz(r: &Mat3, s: f64, c: f64) -> Mat3 {
-    let c0 = r.column(0);
-    let c1 = r.column(1);
-    Mat3::from_columns(&[c0 * c + c1 * s, c1 * c - c0 * s, r.column(2).into_owned()])
+    Mat3::new(
+        r.m11 * c + r.m12 * s,
+        r.m12 * c - r.m11 * s,
+        r.m13,
+        r.m21 * c + r.m22 * s,
+        r.m22 * c - r.m21 * s,
+        r.m23,
+        r.m31 * c + r.m32 * s,
+        r.m32 * c - r.m31 * s,
+        r.m33,
+    )
 }
 
 /// Unit quaternion `[w, x, y, z]` of a rotation matrix, with `w ≥ 0` (Shepperd's method).
@@ -325,7 +359,7 @@ impl Sym3 {
     #[must_use]
     pub fn rotated(&self, r: &Mat3) -> Self {
         // M = R·S, then (M·Rᵀ)_ab = row_a(M)·row_b(R) for the six entries a ≤ b.
-        let m = r * self.to_matrix();
+        let m = mat_mul(r, &self.to_matrix());
         Self {
             xx: m.m11 * r.m11 + m.m12 * r.m12 + m.m13 * r.m13,
             yy: m.m21 * r.m21 + m.m22 * r.m22 + m.m23 * r.m23,

@@ -10,7 +10,7 @@
 //!
 //! Cost: one `sincos`, two 3×3 products and three 3×3·vector products per joint.
 
-use crate::geometry::{Mat3, Pose, Vec3, mul_rz, quat_matrix};
+use crate::geometry::{Mat3, Pose, Vec3, mat_mul, mat_vec, mul_rz, quat_matrix};
 use crate::model::Robot;
 
 /// Attitude (joint frame, `z` = joint axis) and positions of one link, base frame.
@@ -58,6 +58,7 @@ impl<const N: usize> Frames<N> {
     /// // Stretched along +x from the shoulder at (1, 0, 0.5): 0.113+1.325+…+0.04 m.
     /// assert!((f.ee_position.x - (1.0 + 2.814)).abs() < 1e-12);
     /// ```
+    #[inline(always)]
     #[must_use]
     pub fn new(robot: &Robot<N>, q: &[f64; N]) -> Self {
         let mut links = [LinkFrame {
@@ -65,20 +66,20 @@ impl<const N: usize> Frames<N> {
             joint: Vec3::zeros(),
             com: Vec3::zeros(),
         }; N];
+        // All sincos calls first: a call clobbers every float register, so keeping them out
+        // of the recursion below lets the carried frame stay in registers.
+        let trig = q.map(libm::sincos);
         let mut r_prev = Mat3::identity();
         let mut p_prev = Vec3::zeros();
         let mut moment = robot.base_com * robot.base_mass;
-        for ((link, seg), &qi) in links.iter_mut().zip(robot.segments.iter()).zip(q.iter()) {
-            let (s, c) = libm::sincos(qi);
-            let p = p_prev + r_prev * seg.offset;
-            let r = mul_rz(&(r_prev * seg.rot), s, c);
-            let com = p + r * seg.com;
+        for ((link, seg), &(s, c)) in links.iter_mut().zip(robot.segments.iter()).zip(trig.iter()) {
+            let p = p_prev + mat_vec(&r_prev, &seg.offset);
+            let r = mul_rz(&mat_mul(&r_prev, &seg.rot), s, c);
+            let com = p + mat_vec(&r, &seg.com);
             moment += com * seg.mass;
-            *link = LinkFrame {
-                rot: r,
-                joint: p,
-                com,
-            };
+            link.rot = r;
+            link.joint = p;
+            link.com = com;
             r_prev = r;
             p_prev = p;
         }
@@ -86,8 +87,8 @@ impl<const N: usize> Frames<N> {
             links,
             base_com: robot.base_com,
             com: moment / robot.total_mass(),
-            ee_position: p_prev + r_prev * robot.ee_offset,
-            ee_rotation: r_prev * robot.ee_rot,
+            ee_position: p_prev + mat_vec(&r_prev, &robot.ee_offset),
+            ee_rotation: mat_mul(&r_prev, &robot.ee_rot),
         }
     }
 

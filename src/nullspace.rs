@@ -123,11 +123,12 @@ impl<const N: usize, const K: usize> Basis<N, K> {
     ///
     /// # Errors
     /// [`RankLoss`] as for [`Basis::initial`].
+    #[inline(always)]
     pub fn transported(&self, a: &[Vec3; N]) -> Result<Self, RankLoss> {
         Self::orthonormalize(a, self.cols)
     }
 
-    #[inline]
+    #[inline(always)]
     fn orthonormalize(a: &[Vec3; N], mut cols: [[f64; N]; K]) -> Result<Self, RankLoss> {
         let f = factor(a)?;
         for i in 0..K {

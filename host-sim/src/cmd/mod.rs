@@ -1,0 +1,4 @@
+//! One module per subcommand; each exposes `run(...) -> Result<(), CliError>`.
+
+pub mod model;
+pub mod rollout;

@@ -1,0 +1,123 @@
+//! `host-sim model`: the model quantities at one configuration, as JSON on stdout.
+//!
+//! Base at the origin with identity attitude (the base frame). Matrices are arrays of rows.
+
+use crate::error::CliError;
+use crate::urdf::{self, Chain};
+use crate::with_dims;
+use nalgebra::SMatrix;
+use reactionless::{Basis, Frames, Momentum, Robot, generalized_jacobian};
+use serde::Serialize;
+use std::path::Path;
+
+#[derive(Serialize)]
+struct EePose {
+    position: [f64; 3],
+    quat_wxyz: [f64; 4],
+}
+
+#[derive(Serialize)]
+struct ModelReport {
+    robot: String,
+    joints: Vec<String>,
+    q_deg: Vec<f64>,
+    /// System CoM (m).
+    com: [f64; 3],
+    /// H~b (kg m²).
+    hb: Vec<Vec<f64>>,
+    /// H~bm (kg m²), 3×N.
+    hbm: Vec<Vec<f64>>,
+    /// Singular values of H~bm, largest first (host-side SVD, reporting only).
+    hbm_singular_values: Vec<f64>,
+    /// σ_max/σ_min of H~bm.
+    hbm_condition: f64,
+    /// Initial RNS basis MGS(P·E), N×K.
+    rns_basis: Vec<Vec<f64>>,
+    /// Generalized Jacobian, 6×N (m/rad, rad/rad).
+    jg: Vec<Vec<f64>>,
+    ee: EePose,
+}
+
+fn rows<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<Vec<f64>> {
+    m.row_iter().map(|r| r.iter().copied().collect()).collect()
+}
+
+/// Runs the subcommand.
+pub fn run(urdf_path: &Path, ee: Option<&str>, q_deg: &[f64]) -> Result<(), CliError> {
+    let chain = urdf::load(urdf_path, ee)?;
+    let report = with_dims!(chain.dof(), report, &chain, urdf_path, q_deg)?;
+    let text = serde_json::to_string_pretty(&report)
+        .map_err(|e| CliError::internal(format!("JSON: {e}")))?;
+    println!("{text}");
+    Ok(())
+}
+
+fn report<const N: usize, const K: usize>(
+    chain: &Chain,
+    urdf_path: &Path,
+    q_deg: &[f64],
+) -> Result<ModelReport, CliError> {
+    let robot = Robot::new(&chain.desc::<N>()?)
+        .map_err(|e| CliError::input(format!("{}: {}", urdf_path.display(), chain.explain(&e))))?;
+    if q_deg.len() != N {
+        return Err(CliError::input(format!(
+            "--q-deg has {} values; the robot has {N} joints ({})",
+            q_deg.len(),
+            chain.joint_names.join(", ")
+        )));
+    }
+    if let Some((i, v)) = q_deg.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(CliError::input(format!(
+            "--q-deg[{i}] = {v} is not a finite number"
+        )));
+    }
+    let mut q = [0.0; N];
+    for (o, v) in q.iter_mut().zip(q_deg) {
+        *o = v.to_radians();
+    }
+    let frames = Frames::new(&robot, &q);
+    let m = Momentum::new(&robot, &frames);
+    let basis = Basis::<N, K>::initial(&m.hbm).map_err(|cause| {
+        CliError::input(format!(
+            "--q-deg {q_deg:?}: no reaction null-space basis at this configuration ({})",
+            reactionless::Error::RankLoss { step: 0, cause }
+        ))
+    })?;
+    let jg = generalized_jacobian(&robot, &frames)
+        .map_err(|e| CliError::input(format!("generalized Jacobian: {e}")))?;
+    let hbm = SMatrix::<f64, 3, N>::from_columns(&m.hbm);
+    // σ_i(H~bm) = √λ_i(H~bm H~bmᵀ): a 3×3 symmetric eigenproblem (host-side reporting).
+    let gram = hbm * hbm.transpose();
+    let eig = nalgebra::SymmetricEigen::new(gram);
+    let mut svs: Vec<f64> = eig.eigenvalues.iter().map(|l| l.max(0.0).sqrt()).collect();
+    svs.sort_by(|a, b| b.total_cmp(a));
+    let cond = match (svs.first(), svs.last()) {
+        (Some(a), Some(b)) if *b > 0.0 => a / b,
+        _ => f64::INFINITY,
+    };
+    let cols = basis.columns();
+    let rns: Vec<Vec<f64>> = (0..N)
+        .map(|r| {
+            cols.iter()
+                .map(|c| c.get(r).copied().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    let ee = frames.ee_pose();
+    Ok(ModelReport {
+        robot: chain.name.clone(),
+        joints: chain.joint_names.clone(),
+        q_deg: q_deg.to_vec(),
+        com: [frames.com.x, frames.com.y, frames.com.z],
+        hb: rows(&m.hb.to_matrix()),
+        hbm: rows(&hbm),
+        hbm_singular_values: svs,
+        hbm_condition: cond,
+        rns_basis: rns,
+        jg: rows(&jg),
+        ee: EePose {
+            position: ee.position,
+            quat_wxyz: ee.quat_wxyz,
+        },
+    })
+}

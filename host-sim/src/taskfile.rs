@@ -1,0 +1,322 @@
+//! Task files (TOML): schema, loading, and conversion into the core's [`Task`].
+//!
+//! Owns the on-disk format of `spec/tasks/paper.toml`. Every table rejects unknown keys;
+//! angles are degrees (`_deg`), everything else SI with the unit in the key name. Paths are
+//! relative to the task file. Every error names the file, the key and the value.
+
+use crate::error::CliError;
+use crate::urdf::{self, Chain};
+use reactionless::{Error as CoreError, Motion, Param, Pose, Robot, Task};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A whole task file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TaskFile {
+    /// `[robot]`.
+    pub robot: RobotSection,
+    /// `[start]`.
+    pub start: StartSection,
+    /// `[target]`.
+    pub target: TargetSection,
+    /// `[motion]`.
+    pub motion: MotionSection,
+    /// `[planner]` (defaults: spec §7).
+    #[serde(default)]
+    pub planner: PlannerSection,
+}
+
+/// `[robot]`: which robot and which link is the end effector.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSection {
+    /// URDF path, relative to the task file.
+    pub urdf: PathBuf,
+    /// End-effector link (default: the URDF's only leaf link).
+    pub ee_link: Option<String>,
+}
+
+/// `[start]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartSection {
+    /// Start configuration, one angle per revolute joint (deg).
+    pub q_deg: Vec<f64>,
+}
+
+/// `[target]`: the desired end-effector pose in the inertial frame (the base frame at t=0).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetSection {
+    /// Position (m), 3 values.
+    pub position_m: Vec<f64>,
+    /// Attitude as a unit quaternion `[w, x, y, z]` (|‖q‖ − 1| ≤ 1e-6).
+    pub quat_wxyz: Vec<f64>,
+}
+
+/// `[motion]`: duration and time grid.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSection {
+    /// Duration t_f (s), > 0, a whole multiple of `dt_s`.
+    pub tf_s: f64,
+    /// Integration step (s), > 0.
+    pub dt_s: f64,
+    /// Time-law degree n (1..=8), default 1.
+    #[serde(default = "default_n")]
+    pub n: u32,
+}
+
+fn default_n() -> u32 {
+    1
+}
+
+/// `[planner]`: C-PSO settings (spec §7).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlannerSection {
+    /// Swarm size T.
+    pub particles: u32,
+    /// m_max.
+    pub max_iterations: u32,
+    /// Cognitive factor c1.
+    pub c1: f64,
+    /// Social factor c2.
+    pub c2: f64,
+    /// Inertia weight at the first iteration.
+    pub w_max: f64,
+    /// Inertia weight at the last iteration.
+    pub w_min: f64,
+    /// σ_e on f (m and rad mixed).
+    pub tolerance: f64,
+    /// Initial positions uniform in [−B, B]^(2K).
+    pub eta_bound: f64,
+    /// Seed of the xoshiro256++ stream.
+    pub seed: u64,
+    /// `[planner.stagnation]`.
+    pub stagnation: StagnationSection,
+}
+
+impl Default for PlannerSection {
+    fn default() -> Self {
+        Self {
+            particles: 40,
+            max_iterations: 200,
+            c1: 1.49618,
+            c2: 1.49618,
+            w_max: 0.9,
+            w_min: 0.4,
+            tolerance: 0.05,
+            eta_bound: 5.0,
+            seed: 1,
+            stagnation: StagnationSection::default(),
+        }
+    }
+}
+
+/// `[planner.stagnation]`: the alarm of §5.2.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StagnationSection {
+    /// Iterations over which gbest must improve.
+    pub window: u32,
+    /// Relative improvement below which the swarm counts as stagnating.
+    pub min_relative_improvement: f64,
+    /// Re-initialisation spread around gbest (S1).
+    pub eps1: f64,
+    /// Inertia boost (S2).
+    pub eps2: f64,
+}
+
+impl Default for StagnationSection {
+    fn default() -> Self {
+        Self {
+            window: 10,
+            min_relative_improvement: 1e-3,
+            eps1: 0.5,
+            eps2: 0.3,
+        }
+    }
+}
+
+/// A parsed task file with its robot.
+#[derive(Debug, Clone)]
+pub struct LoadedTask {
+    /// The task file path as given.
+    pub path: PathBuf,
+    /// Parsed contents.
+    pub file: TaskFile,
+    /// The robot chain.
+    pub chain: Chain,
+    /// Resolved URDF path.
+    pub urdf_path: PathBuf,
+}
+
+/// Reads a task file and the URDF it names.
+pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
+    let shown = path.display();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::input(format!("{shown}: cannot read task file: {e}")))?;
+    let file: TaskFile = toml::from_str(&text)
+        .map_err(|e| CliError::input(format!("{shown}: {}", one_line(&e.to_string()))))?;
+    let urdf_path = path
+        .parent()
+        .unwrap_or_else(|| Path::new("."))
+        .join(&file.robot.urdf);
+    let chain = urdf::load(&urdf_path, file.robot.ee_link.as_deref()).map_err(|e| {
+        CliError::input(format!(
+            "{shown}: [robot] urdf = {:?}: {}",
+            file.robot.urdf.display().to_string(),
+            e.message
+        ))
+    })?;
+    Ok(LoadedTask {
+        path: path.to_path_buf(),
+        file,
+        chain,
+        urdf_path,
+    })
+}
+
+/// Collapses toml's multi-line error report into one line.
+fn one_line(s: &str) -> String {
+    s.split('\n')
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.chars().all(|c| "|^ ".contains(c)))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+impl LoadedTask {
+    fn err(&self, msg: impl std::fmt::Display) -> CliError {
+        CliError::input(format!("{}: {msg}", self.path.display()))
+    }
+
+    /// Checks that every number in `values` is finite; names the key and index.
+    fn finite(&self, key: &str, values: &[f64]) -> Result<(), CliError> {
+        for (i, v) in values.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(self.err(format!("{key}[{i}] = {v} is not a finite number")));
+            }
+        }
+        Ok(())
+    }
+
+    fn length(&self, key: &str, values: &[f64], want: usize) -> Result<(), CliError> {
+        if values.len() != want {
+            return Err(self.err(format!(
+                "{key} has {} values, expected {want}",
+                values.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// The validated robot model.
+    pub fn robot<const N: usize>(&self) -> Result<Robot<N>, CliError> {
+        let desc = self.chain.desc::<N>()?;
+        Robot::new(&desc).map_err(|e| {
+            self.err(format!(
+                "URDF {}: {}",
+                self.urdf_path.display(),
+                self.chain.explain(&e)
+            ))
+        })
+    }
+
+    /// The validated motion grid.
+    pub fn motion(&self) -> Result<Motion, CliError> {
+        let m = &self.file.motion;
+        Motion::new(m.tf_s, m.dt_s, m.n).map_err(|e| {
+            let what = match e {
+                CoreError::NotFinite(Param::FinalTime)
+                | CoreError::NotPositive(Param::FinalTime) => {
+                    format!("[motion] tf_s = {}: must be a finite number > 0", m.tf_s)
+                }
+                CoreError::NotFinite(Param::TimeStep) | CoreError::NotPositive(Param::TimeStep) => {
+                    format!("[motion] dt_s = {}: must be a finite number > 0", m.dt_s)
+                }
+                CoreError::StepsNotInteger => format!(
+                    "[motion] tf_s = {} is not a whole multiple of dt_s = {}",
+                    m.tf_s, m.dt_s
+                ),
+                CoreError::TooManySteps => format!(
+                    "[motion] tf_s / dt_s = {} exceeds the maximum of {} steps",
+                    m.tf_s / m.dt_s,
+                    reactionless::MAX_STEPS
+                ),
+                CoreError::DegreeOutOfRange => format!(
+                    "[motion] n = {} is outside 1..={}",
+                    m.n,
+                    reactionless::MAX_DEGREE
+                ),
+                other => other.to_string(),
+            };
+            self.err(what)
+        })
+    }
+
+    /// Start configuration (rad), checked for length and finiteness.
+    pub fn start<const N: usize>(&self) -> Result<[f64; N], CliError> {
+        let q = &self.file.start.q_deg;
+        self.length("[start] q_deg", q, N)?;
+        self.finite("[start] q_deg", q)?;
+        let mut out = [0.0; N];
+        for (o, v) in out.iter_mut().zip(q) {
+            *o = v.to_radians();
+        }
+        Ok(out)
+    }
+
+    /// Target pose, checked for lengths and finiteness (unit norm is checked by the core).
+    pub fn target(&self) -> Result<Pose, CliError> {
+        let t = &self.file.target;
+        self.length("[target] position_m", &t.position_m, 3)?;
+        self.length("[target] quat_wxyz", &t.quat_wxyz, 4)?;
+        self.finite("[target] position_m", &t.position_m)?;
+        self.finite("[target] quat_wxyz", &t.quat_wxyz)?;
+        let mut p = Pose {
+            position: [0.0; 3],
+            quat_wxyz: [0.0; 4],
+        };
+        p.position.copy_from_slice(&t.position_m);
+        p.quat_wxyz.copy_from_slice(&t.quat_wxyz);
+        Ok(p)
+    }
+
+    /// The core task, every input validated.
+    pub fn task<const N: usize, const K: usize>(&self) -> Result<Task<N, K>, CliError> {
+        let robot = self.robot::<N>()?;
+        let q0 = self.start::<N>()?;
+        let target = self.target()?;
+        let motion = self.motion()?;
+        let (lower, upper) = (*robot.lower(), *robot.upper());
+        Task::new(robot, q0, target, motion).map_err(|e| match e {
+            CoreError::StartOutsideLimits(j) => {
+                let i = usize::from(j) - 1;
+                let get = |a: &[f64]| a.get(i).copied().unwrap_or(f64::NAN).to_degrees();
+                self.err(format!(
+                    "[start] q_deg[{i}] = {} is outside the limits of {} [{:.6}, {:.6}] deg",
+                    self.file.start.q_deg.get(i).copied().unwrap_or(f64::NAN),
+                    self.chain.joint_name(j),
+                    get(&lower),
+                    get(&upper)
+                ))
+            }
+            CoreError::QuaternionNotUnit => {
+                let q = &self.file.target.quat_wxyz;
+                let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+                self.err(format!(
+                    "[target] quat_wxyz = {q:?} has norm {n}, not 1 (tolerance {:e})",
+                    reactionless::UNIT_TOLERANCE
+                ))
+            }
+            CoreError::RankLoss { .. } => self.err(format!(
+                "[start] q_deg = {:?}: the coupling inertia H~bm is rank-deficient there ({e})",
+                self.file.start.q_deg
+            )),
+            other => self.err(other),
+        })
+    }
+}

@@ -1,0 +1,467 @@
+//! URDF → the core's plain robot description.
+//!
+//! Owns the chain extraction: the path of joints from the root link to the end-effector
+//! link must consist of revolute and fixed joints only. Fixed joints on the path are
+//! composed into the next revolute joint's origin (or into the end-effector frame); links
+//! hanging off the path through fixed joints only are rigid attachments whose mass is merged
+//! into the body they are fixed to. Anything else (other joint types, movable joints off the
+//! path, several roots) is rejected with a message that names the element.
+//!
+//! Where nothing needs composing or merging, values are passed through untouched, so a URDF
+//! written like `spec/chaser7.urdf` loads to exactly the bits of [`reactionless::CHASER7`].
+
+use crate::error::CliError;
+use reactionless::geometry::{Mat3, Sym3, Vec3, matrix_rpy, rpy_matrix};
+use reactionless::{BodyDesc, Inertia, JointDesc, Origin};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Joint counts host-sim can instantiate the core for.
+pub const MIN_JOINTS: usize = 4;
+/// Largest supported joint count.
+pub const MAX_JOINTS: usize = 12;
+
+/// A serial chain read from URDF, with names for messages and reports.
+#[derive(Debug, Clone)]
+pub struct Chain {
+    /// Robot name from the URDF.
+    pub name: String,
+    /// Root link name.
+    pub base_link: String,
+    /// Revolute joint names, base to tip.
+    pub joint_names: Vec<String>,
+    /// Link moved by each revolute joint.
+    pub link_names: Vec<String>,
+    /// End-effector link name.
+    pub ee_link: String,
+    /// Base body.
+    pub base: BodyDesc,
+    /// Revolute joints, base to tip.
+    pub joints: Vec<JointDesc>,
+    /// Bodies moved by each joint (with their fixed attachments merged).
+    pub links: Vec<BodyDesc>,
+    /// End-effector frame in the last body's frame.
+    pub end_effector: Origin,
+}
+
+impl Chain {
+    /// Number of revolute joints `N`.
+    pub fn dof(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// The core description for `N` joints (the caller dispatched on [`Chain::dof`]).
+    pub fn desc<const N: usize>(&self) -> Result<reactionless::RobotDesc<N>, CliError> {
+        let joints: [JointDesc; N] = self
+            .joints
+            .clone()
+            .try_into()
+            .map_err(|_| CliError::internal("joint count mismatch"))?;
+        let links: [BodyDesc; N] = self
+            .links
+            .clone()
+            .try_into()
+            .map_err(|_| CliError::internal("link count mismatch"))?;
+        Ok(reactionless::RobotDesc {
+            base: self.base,
+            joints,
+            links,
+            end_effector: self.end_effector,
+        })
+    }
+
+    /// Human name of a body for messages: `base link 'base'` or `link 'link3'`.
+    pub fn body_name(&self, body: reactionless::Body) -> String {
+        match body {
+            reactionless::Body::Base => format!("base link '{}'", self.base_link),
+            reactionless::Body::Link(i) => match self.link_names.get(usize::from(i) - 1) {
+                Some(n) => format!("link '{n}'"),
+                None => format!("link {i}"),
+            },
+        }
+    }
+
+    /// Human name of joint `j` (1-based).
+    pub fn joint_name(&self, j: u8) -> String {
+        match self.joint_names.get(usize::from(j).wrapping_sub(1)) {
+            Some(n) => format!("joint '{n}'"),
+            None => format!("joint {j}"),
+        }
+    }
+
+    /// Rewrites a core model error with the URDF's names.
+    pub fn explain(&self, e: &reactionless::Error) -> String {
+        use reactionless::{Error as E, Param as P};
+        match e {
+            E::NotFinite(p) | E::NotPositive(p) => {
+                let what = match p {
+                    P::Mass(b) => format!("mass of {}", self.body_name(*b)),
+                    P::CenterOfMass(b) => format!("inertial origin of {}", self.body_name(*b)),
+                    P::Inertia(b) => format!("inertia of {}", self.body_name(*b)),
+                    P::JointOrigin(j) => format!("origin of {}", self.joint_name(*j)),
+                    P::JointAxis(j) => format!("axis of {}", self.joint_name(*j)),
+                    P::LowerLimit(j) => format!("lower limit of {}", self.joint_name(*j)),
+                    P::UpperLimit(j) => format!("upper limit of {}", self.joint_name(*j)),
+                    P::VelocityLimit(j) => format!("velocity limit of {}", self.joint_name(*j)),
+                    P::EndEffector => format!("frame of end-effector link '{}'", self.ee_link),
+                    other => other.to_string(),
+                };
+                if matches!(e, E::NotFinite(_)) {
+                    format!("{what} is not a finite number")
+                } else {
+                    format!("{what} must be strictly positive")
+                }
+            }
+            E::InertiaNotPositiveDefinite(b) => {
+                format!("inertia of {} is not positive definite", self.body_name(*b))
+            }
+            E::AxisNotUnit(j) => format!(
+                "axis of {} is not a unit vector (|norm - 1| > {:e})",
+                self.joint_name(*j),
+                reactionless::UNIT_TOLERANCE
+            ),
+            E::LimitsInverted(j) => format!(
+                "{}: lower limit is not below the upper limit",
+                self.joint_name(*j)
+            ),
+            other => other.to_string(),
+        }
+    }
+}
+
+/// A rigid transform.
+#[derive(Debug, Clone, Copy)]
+struct Tf {
+    r: Mat3,
+    t: Vec3,
+}
+
+impl Tf {
+    fn identity() -> Self {
+        Self {
+            r: Mat3::identity(),
+            t: Vec3::zeros(),
+        }
+    }
+
+    fn from_pose(p: &urdf_rs::Pose) -> Self {
+        Self {
+            r: rpy_matrix(p.rpy.0),
+            t: Vec3::from(p.xyz.0),
+        }
+    }
+
+    fn then(&self, o: &Tf) -> Tf {
+        Tf {
+            r: self.r * o.r,
+            t: self.t + self.r * o.t,
+        }
+    }
+
+    fn origin(&self) -> Origin {
+        Origin {
+            xyz: [self.t.x, self.t.y, self.t.z],
+            rpy: matrix_rpy(&self.r),
+        }
+    }
+}
+
+fn pose_origin(p: &urdf_rs::Pose) -> Origin {
+    Origin {
+        xyz: p.xyz.0,
+        rpy: p.rpy.0,
+    }
+}
+
+/// One mass-carrying part of a body: a URDF link and its pose in the body frame.
+struct Part<'a> {
+    link: &'a urdf_rs::Link,
+    /// Link frame in the body frame; `None` = the body's own link (identity).
+    in_body: Option<Tf>,
+}
+
+/// Reads and extracts the chain from a URDF file.
+pub fn load(path: &Path, ee: Option<&str>) -> Result<Chain, CliError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::input(format!("{}: cannot read URDF: {e}", path.display())))?;
+    parse(&text, ee).map_err(|m| CliError::input(format!("{}: {m}", path.display())))
+}
+
+/// Extracts the chain from URDF text. Errors are messages without the file name.
+pub fn parse(text: &str, ee: Option<&str>) -> Result<Chain, String> {
+    let robot = urdf_rs::read_from_string(text)
+        .map_err(|e| format!("not a readable URDF document: {e}"))?;
+    let links: BTreeMap<&str, &urdf_rs::Link> =
+        robot.links.iter().map(|l| (l.name.as_str(), l)).collect();
+    if links.len() != robot.links.len() {
+        return Err("two links share a name".into());
+    }
+    let mut parent_of: BTreeMap<&str, &urdf_rs::Joint> = BTreeMap::new();
+    let mut children: BTreeMap<&str, Vec<&urdf_rs::Joint>> = BTreeMap::new();
+    for j in &robot.joints {
+        for l in [&j.parent.link, &j.child.link] {
+            if !links.contains_key(l.as_str()) {
+                return Err(format!("joint '{}' refers to unknown link '{l}'", j.name));
+            }
+        }
+        if parent_of.insert(j.child.link.as_str(), j).is_some() {
+            return Err(format!("link '{}' has two parent joints", j.child.link));
+        }
+        children.entry(j.parent.link.as_str()).or_default().push(j);
+    }
+    let roots: Vec<&str> = robot
+        .links
+        .iter()
+        .map(|l| l.name.as_str())
+        .filter(|n| !parent_of.contains_key(n))
+        .collect();
+    let root = match roots.as_slice() {
+        [r] => *r,
+        [] => return Err("no root link (the joints form a cycle)".into()),
+        many => return Err(format!("several root links: {}", many.join(", "))),
+    };
+    let ee_link = match ee {
+        Some(e) => {
+            if !links.contains_key(e) {
+                return Err(format!("end-effector link '{e}' is not in the URDF"));
+            }
+            e
+        }
+        None => {
+            let leaves: Vec<&str> = robot
+                .links
+                .iter()
+                .map(|l| l.name.as_str())
+                .filter(|n| !children.contains_key(n))
+                .collect();
+            match leaves.as_slice() {
+                [l] => *l,
+                many => {
+                    return Err(format!(
+                        "several leaf links ({}); name the end effector (ee_link / --ee)",
+                        many.join(", ")
+                    ));
+                }
+            }
+        }
+    };
+    // The path root → ee, as joints.
+    let mut path: Vec<&urdf_rs::Joint> = Vec::new();
+    let mut cur = ee_link;
+    while let Some(j) = parent_of.get(cur) {
+        if path.len() > robot.joints.len() {
+            return Err("the joints form a cycle".into());
+        }
+        path.push(j);
+        cur = j.parent.link.as_str();
+    }
+    path.reverse();
+    for j in &path {
+        match j.joint_type {
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Fixed => {}
+            ref t => {
+                return Err(format!(
+                    "joint '{}' is {t:?}: only revolute and fixed joints are supported",
+                    j.name
+                ));
+            }
+        }
+    }
+    let on_path: Vec<&str> = path.iter().map(|j| j.name.as_str()).collect();
+
+    // Bodies: the root, then the child of each revolute joint. Each body collects the links
+    // rigidly attached to it (fixed joints, on or off the path).
+    let mut bodies: Vec<(String, Vec<Part>)> = vec![(root.to_string(), Vec::new())];
+    let mut joints = Vec::new();
+    let mut joint_names = Vec::new();
+    let mut link_names = Vec::new();
+    // Transform from the current body's frame to the current path link's frame.
+    let mut to_link = Tf::identity();
+    let mut composed = false;
+    let mut ee_origin = Origin::IDENTITY;
+    let mut path_links: Vec<(&str, Tf, bool)> = vec![(root, Tf::identity(), false)];
+    for j in &path {
+        if j.joint_type == urdf_rs::JointType::Fixed {
+            to_link = to_link.then(&Tf::from_pose(&j.origin));
+            composed = true;
+            path_links.push((j.child.link.as_str(), to_link, true));
+            continue;
+        }
+        let origin = if composed {
+            to_link.then(&Tf::from_pose(&j.origin)).origin()
+        } else {
+            pose_origin(&j.origin)
+        };
+        let l = &j.limit;
+        joints.push(JointDesc {
+            origin,
+            axis: j.axis.xyz.0,
+            lower: l.lower,
+            upper: l.upper,
+            velocity: l.velocity,
+        });
+        joint_names.push(j.name.clone());
+        link_names.push(j.child.link.clone());
+        bodies.push((j.child.link.clone(), Vec::new()));
+        to_link = Tf::identity();
+        composed = false;
+        path_links.push((j.child.link.as_str(), to_link, false));
+    }
+    if composed {
+        ee_origin = to_link.origin();
+    }
+    // Assign every path link and its fixed off-path subtrees to the body it belongs to.
+    let mut body_index = 0usize;
+    for (k, (name, tf, via_fixed)) in path_links.iter().enumerate() {
+        if k > 0 && !via_fixed {
+            body_index += 1;
+        }
+        let link = links
+            .get(name)
+            .copied()
+            .ok_or_else(|| format!("link '{name}' missing"))?;
+        let Some((_, parts)) = bodies.get_mut(body_index) else {
+            return Err("internal: body index".into());
+        };
+        parts.push(Part {
+            link,
+            in_body: if *via_fixed { Some(*tf) } else { None },
+        });
+        // Off-path subtrees: fixed-only, merged rigidly.
+        let beyond_ee = k + 1 == path_links.len();
+        let mut stack: Vec<(&str, Tf)> = vec![(name, *tf)];
+        let mut guard = 0usize;
+        while let Some((lname, ltf)) = stack.pop() {
+            guard += 1;
+            if guard > robot.links.len() + 1 {
+                return Err("the joints form a cycle".into());
+            }
+            for cj in children.get(lname).map(Vec::as_slice).unwrap_or(&[]) {
+                if on_path.contains(&cj.name.as_str()) {
+                    continue;
+                }
+                if cj.joint_type != urdf_rs::JointType::Fixed {
+                    if beyond_ee {
+                        return Err(format!(
+                            "{:?} joint '{}' moves links beyond the end-effector link '{ee_link}'",
+                            cj.joint_type, cj.name
+                        ));
+                    }
+                    return Err(format!(
+                        "branching tree: {:?} joint '{}' is not on the chain from '{root}' to '{ee_link}'",
+                        cj.joint_type, cj.name
+                    ));
+                }
+                let ctf = ltf.then(&Tf::from_pose(&cj.origin));
+                let clink = links
+                    .get(cj.child.link.as_str())
+                    .copied()
+                    .ok_or_else(|| format!("link '{}' missing", cj.child.link))?;
+                parts.push(Part {
+                    link: clink,
+                    in_body: Some(ctf),
+                });
+                stack.push((cj.child.link.as_str(), ctf));
+            }
+        }
+    }
+    let n = joints.len();
+    if !(MIN_JOINTS..=MAX_JOINTS).contains(&n) {
+        return Err(format!(
+            "the chain from '{root}' to '{ee_link}' has {n} revolute joints; supported: {MIN_JOINTS}..={MAX_JOINTS}"
+        ));
+    }
+    let mut descs = Vec::with_capacity(bodies.len());
+    for (name, parts) in &bodies {
+        descs.push(merge(name, parts)?);
+    }
+    let mut descs = descs.into_iter();
+    let base = descs.next().ok_or("internal: no base body")?;
+    Ok(Chain {
+        name: robot.name.clone(),
+        base_link: root.to_string(),
+        joint_names,
+        link_names,
+        ee_link: ee_link.to_string(),
+        base,
+        joints,
+        links: descs.collect(),
+        end_effector: ee_origin,
+    })
+}
+
+/// The mass properties of one body from its parts.
+fn merge(body: &str, parts: &[Part]) -> Result<BodyDesc, String> {
+    let mut massive = Vec::new();
+    for p in parts {
+        let m = p.link.inertial.mass.value;
+        if !m.is_finite() {
+            return Err(format!(
+                "link '{}': mass is not a finite number",
+                p.link.name
+            ));
+        }
+        if m < 0.0 {
+            return Err(format!("link '{}': negative mass {m}", p.link.name));
+        }
+        if m > 0.0 {
+            massive.push(p);
+        }
+    }
+    let inertia_of = |l: &urdf_rs::Link| {
+        let i = &l.inertial.inertia;
+        Inertia {
+            ixx: i.ixx,
+            ixy: i.ixy,
+            ixz: i.ixz,
+            iyy: i.iyy,
+            iyz: i.iyz,
+            izz: i.izz,
+        }
+    };
+    match massive.as_slice() {
+        [] => Err(format!(
+            "body '{body}' has no mass (the links moved together by one joint need mass > 0)"
+        )),
+        [p] if p.in_body.is_none() => Ok(BodyDesc {
+            mass: p.link.inertial.mass.value,
+            inertial: pose_origin(&p.link.inertial.origin),
+            inertia: inertia_of(p.link),
+        }),
+        many => {
+            // Combine: CoM and inertia of every part in the body frame, parallel-axis sum.
+            let mut total = 0.0;
+            let mut moment = Vec3::zeros();
+            let mut items = Vec::new();
+            for p in many {
+                let tf = p.in_body.unwrap_or_else(Tf::identity);
+                let inertial = tf.then(&Tf::from_pose(&p.link.inertial.origin));
+                let m = p.link.inertial.mass.value;
+                let i = inertia_of(p.link).to_sym().rotated(&inertial.r);
+                total += m;
+                moment += inertial.t * m;
+                items.push((m, inertial.t, i));
+            }
+            let com = moment / total;
+            let mut sum = Sym3::ZERO;
+            for (m, c, i) in items {
+                sum = sum.add(&i).add(&Sym3::point_mass(m, &(c - com)));
+            }
+            Ok(BodyDesc {
+                mass: total,
+                inertial: Origin {
+                    xyz: [com.x, com.y, com.z],
+                    rpy: [0.0; 3],
+                },
+                inertia: Inertia {
+                    ixx: sum.xx,
+                    ixy: sum.xy,
+                    ixz: sum.xz,
+                    iyy: sum.yy,
+                    iyz: sum.yz,
+                    izz: sum.zz,
+                },
+            })
+        }
+    }
+}

@@ -1,0 +1,308 @@
+//! End-to-end tests of the `host-sim` binary (REQ: issue 2, "host-sim: first two
+//! subcommands"): outputs, argument forms, exit codes, and nothing written on bad input.
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
+
+use assert_cmd::Command;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const ETA_HAT: &str = "3.14771,0.809316,1.12249,0.754006,4.7352,0.406031,-4.1572,4.29895";
+const Q0: &str = "-90,45,0,80,-90,-45,-10";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn host_sim() -> Command {
+    Command::cargo_bin("host-sim").unwrap()
+}
+
+fn paper() -> PathBuf {
+    root().join("spec/tasks/paper.toml")
+}
+
+/// A copy of paper.toml with `edit` applied, in `dir` (URDF path made absolute).
+fn task_with(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(paper()).unwrap();
+    let urdf = root().join("spec/chaser7.urdf");
+    let text = text.replace(
+        "\"../chaser7.urdf\"",
+        &format!("{:?}", urdf.display().to_string()),
+    );
+    let path = dir.join("task.toml");
+    std::fs::write(&path, edit(text)).unwrap();
+    path
+}
+
+#[test]
+fn model_prints_the_spec_golden_values_with_both_list_syntaxes() {
+    for args in [vec!["--q-deg", Q0], vec![&*format!("--q-deg={Q0}")]] {
+        let out = host_sim()
+            .args(["model", "--urdf"])
+            .arg(root().join("spec/chaser7.urdf"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        let row1: Vec<f64> = v["hbm"][0]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert!((row1[0] - 64.21266294418797).abs() < 1e-9);
+        assert!((row1[6] + 0.00146008723562147).abs() < 1e-9);
+        assert!((v["hb"][2][2].as_f64().unwrap() - 831.1288323973174).abs() < 1e-9);
+        assert_eq!(v["hbm"].as_array().unwrap().len(), 3);
+        assert_eq!(v["hbm"][0].as_array().unwrap().len(), 7);
+        assert_eq!(v["rns_basis"].as_array().unwrap().len(), 7);
+        assert_eq!(v["rns_basis"][0].as_array().unwrap().len(), 4);
+        assert_eq!(v["jg"].as_array().unwrap().len(), 6);
+        assert_eq!(v["com"].as_array().unwrap().len(), 3);
+        assert!((v["ee"]["position"][0].as_f64().unwrap() - 1.411848994172882).abs() < 1e-12);
+        assert_eq!(v["ee"]["quat_wxyz"].as_array().unwrap().len(), 4);
+        assert!((v["hbm_condition"].as_f64().unwrap() - 16.4).abs() < 0.05);
+    }
+}
+
+#[test]
+fn model_rejects_bad_lists_with_exit_code_2() {
+    let urdf = root().join("spec/chaser7.urdf");
+    let out = host_sim()
+        .args(["model", "--urdf"])
+        .arg(&urdf)
+        .args(["--q-deg", "-90,abc"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("'abc' is not a number"));
+    let out = host_sim()
+        .args(["model", "--urdf"])
+        .arg(&urdf)
+        .args(["--q-deg", "1,2,3"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has 3 values; the robot has 7 joints"));
+    let out = host_sim()
+        .args(["model", "--urdf", "/nonexistent.urdf", "--q-deg", "0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent.urdf"));
+}
+
+fn floats(line: &str) -> Vec<f64> {
+    line.split(',').map(|x| x.parse().unwrap()).collect()
+}
+
+#[test]
+fn rollout_writes_trajectory_and_summary() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("paper");
+    host_sim()
+        .arg("rollout")
+        .arg(paper())
+        .args(["--eta", ETA_HAT, "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(
+        lines[0],
+        "t,q1,q2,q3,q4,q5,q6,q7,qd1,qd2,qd3,qd4,qd5,qd6,qd7"
+    );
+    assert_eq!(lines.len(), 1 + 3001);
+    let first = floats(lines[1]);
+    let last = floats(lines[3001]);
+    assert_eq!(first[0], 0.0);
+    assert_eq!(last[0], 30.0);
+    assert!(
+        first[8..].iter().chain(&last[8..]).all(|v| *v == 0.0),
+        "q̇ = 0 at both ends"
+    );
+    // The CSV is the core's output to the bit (shortest round-trip printing).
+    let task = {
+        use reactionless::{CHASER7, Motion, Pose, Robot, Task};
+        let q0 = [-90f64, 45.0, 0.0, 80.0, -90.0, -45.0, -10.0].map(f64::to_radians);
+        let t = Pose {
+            position: [0.0; 3],
+            quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+        };
+        Task::<7, 4>::new(
+            Robot::new(&CHASER7).unwrap(),
+            q0,
+            t,
+            Motion::new(30.0, 0.01, 1).unwrap(),
+        )
+        .unwrap()
+    };
+    let eta = [
+        [3.14771, 0.809316],
+        [1.12249, 0.754006],
+        [4.7352, 0.406031],
+        [-4.1572, 4.29895],
+    ];
+    let mut row = 1;
+    task.rollout(&eta, &mut |s: &reactionless::Sample<7>| {
+        let v = floats(lines[row]);
+        let want: Vec<f64> = std::iter::once(s.t).chain(s.q).chain(s.qd).collect();
+        assert_eq!(
+            v.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            want.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            "row {row}"
+        );
+        row += 1;
+    })
+    .unwrap();
+    let s: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "q_final",
+        "end_pose",
+        "f",
+        "phi",
+        "joint_min",
+        "joint_max",
+        "max_abs_qdot",
+        "g",
+        "base_disturbance_deg",
+    ] {
+        assert!(s.get(key).is_some(), "summary.json lacks {key}");
+    }
+    assert!((s["f"].as_f64().unwrap() - 3.27e-5).abs() < 0.01e-5);
+    assert_eq!(s["phi"].as_f64().unwrap(), 0.0);
+    assert!((s["g"].as_f64().unwrap() / 520546.2259291871 - 1.0).abs() < 1e-9);
+    let d = s["base_disturbance_deg"].as_f64().unwrap();
+    assert!((d / 7.27e-4 - 1.0).abs() < 0.01, "{d}");
+    assert!(s["truth_f"].as_f64().unwrap() < 1e-6);
+    // A second run replaces the directory (it carries host-sim's marker).
+    host_sim()
+        .arg("rollout")
+        .arg(paper())
+        .args([&format!("--eta={ETA_HAT}"), "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+}
+
+/// Runs `rollout` on a task edited by `edit`; expects exit 2, a message containing every
+/// string in `want`, and no output directory.
+fn rejects(edit: impl Fn(String) -> String, eta: &str, want: &[&str]) {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = task_with(tmp.path(), edit);
+    let out = tmp.path().join("out");
+    let o = host_sim()
+        .arg("rollout")
+        .arg(&task)
+        .args([&format!("--eta={eta}"), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for w in want {
+        assert!(err.contains(w), "message {err:?} lacks {w:?}");
+    }
+    assert!(err.contains("task.toml") || err.contains("--eta"), "{err}");
+    assert!(!out.exists(), "output created on bad input");
+    let leftovers: Vec<_> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(leftovers.len(), 1, "stray files: {leftovers:?}");
+}
+
+#[test]
+fn bad_task_files_are_named_and_write_nothing() {
+    let id = |s: String| s;
+    rejects(
+        |s| s.replace("tf_s = 30.0", "tf_s = 30.0\nspeed = 3"),
+        ETA_HAT,
+        &["speed"],
+    );
+    rejects(
+        |s| s.replace("dt_s = 0.01", "dt_s = \"fast\""),
+        ETA_HAT,
+        &["dt_s"],
+    );
+    rejects(
+        |s| s.replace("dt_s = 0.01", "dt_s = 0.007"),
+        ETA_HAT,
+        &["tf_s = 30", "dt_s = 0.007", "whole multiple"],
+    );
+    rejects(
+        |s| s.replace("dt_s = 0.01", "dt_s = -0.01"),
+        ETA_HAT,
+        &["dt_s = -0.01"],
+    );
+    rejects(
+        |s| s.replace("tf_s = 30.0", "tf_s = nan"),
+        ETA_HAT,
+        &["tf_s = NaN"],
+    );
+    rejects(
+        |s| s.replace("-90.0, 45.0, 0.0, 80.0", "-90.0, 45.0, 80.0"),
+        ETA_HAT,
+        &["[start] q_deg has 6 values, expected 7"],
+    );
+    rejects(
+        |s| s.replace("45.0, 0.0, 80.0", "45.0, 0.0, 120.0"),
+        ETA_HAT,
+        &["q_deg[3] = 120", "joint 'j4'"],
+    );
+    rejects(
+        |s| s.replace("45.0, 0.0, 80.0", "45.0, inf, 80.0"),
+        ETA_HAT,
+        &["q_deg[2] = inf"],
+    );
+    rejects(
+        |s| s.replace("0.3874560731031927,", "0.5,"),
+        ETA_HAT,
+        &["quat_wxyz", "norm"],
+    );
+    rejects(
+        |s| s.replace("urdf = \"", "urdf = \"/missing"),
+        ETA_HAT,
+        &["[robot] urdf", "cannot read URDF"],
+    );
+    rejects(
+        |s| s.replace("ee_link = \"ee\"", "ee_link = \"hand\""),
+        ETA_HAT,
+        &["'hand'"],
+    );
+    rejects(
+        |s| s.replace("[motion]", "[motion\n"),
+        ETA_HAT,
+        &["task.toml"],
+    );
+    rejects(id, "1,2,3", &["--eta has 3 values", "2K = 8"]);
+    rejects(id, "0,0,0,0,0,0,0,0", &["all zeros"]);
+}
+
+#[test]
+fn a_foreign_output_directory_is_never_replaced() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("mine");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), "keep me").unwrap();
+    let o = host_sim()
+        .arg("rollout")
+        .arg(paper())
+        .args([&format!("--eta={ETA_HAT}"), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not written by host-sim"));
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "keep me"
+    );
+}

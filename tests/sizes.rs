@@ -1,0 +1,24 @@
+//! The sizes of the core's state are documented figures (README, "Memory"); this test
+//! pins them so the documentation cannot drift (REQ: guide, "size_of is a documented figure").
+#![allow(missing_docs)]
+
+use core::mem::size_of;
+use reactionless::{Basis, Frames, Outcome, Robot, Rollout, Task, TimeLaw};
+
+#[test]
+fn documented_sizes_for_the_reference_robot() {
+    let sizes = [
+        ("Robot<7>", size_of::<Robot<7>>()),
+        ("Task<7, 4>", size_of::<Task<7, 4>>()),
+        ("Rollout<7, 4>", size_of::<Rollout<7, 4>>()),
+        ("Basis<7, 4>", size_of::<Basis<7, 4>>()),
+        ("TimeLaw<4>", size_of::<TimeLaw<4>>()),
+        ("Frames<7>", size_of::<Frames<7>>()),
+        ("Outcome<7>", size_of::<Outcome<7>>()),
+    ];
+    for (name, size) in sizes {
+        println!("{name}: {size} bytes");
+    }
+    assert_eq!(size_of::<Task<7, 4>>(), 3528);
+    assert_eq!(size_of::<Rollout<7, 4>>(), 848);
+}

@@ -14,7 +14,8 @@
 //! [`Momentum`], [`Basis`]) are in the base frame.
 //!
 //! Data flows one way: [`model`] → [`kinematics`] → [`momentum`] → [`nullspace`] →
-//! [`trajectory`] / [`task`] → [`rollout`] (→ [`truth`] for checking).
+//! [`trajectory`] / [`task`] → [`rollout`] (→ [`truth`] for checking); [`reference`] holds
+//! the reference scenario of spec §8.
 //!
 //! ```
 //! use reactionless::{CHASER7, Motion, Pose, Robot, Task};
@@ -51,6 +52,7 @@ pub mod kinematics;
 pub mod model;
 pub mod momentum;
 pub mod nullspace;
+pub mod reference;
 pub mod rollout;
 pub mod task;
 pub mod trajectory;

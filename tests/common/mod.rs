@@ -1,35 +1,16 @@
 //! Shared fixtures of the integration tests: the reference task of spec §8.
 #![allow(
     dead_code,
+    unused_imports,
     clippy::unwrap_used,
     clippy::expect_used,
     clippy::indexing_slicing,
     clippy::needless_range_loop
 )]
 
-use reactionless::{CHASER7, Motion, Pose, Robot, Task};
+use reactionless::{CHASER7, Robot, Task};
 
-/// q₀ of spec §8 (deg).
-pub const Q0_DEG: [f64; 7] = [-90.0, 45.0, 0.0, 80.0, -90.0, -45.0, -10.0];
-
-/// The paper's η̂ as pairs (a_i, b_i).
-pub const ETA_HAT: [[f64; 2]; 4] = [
-    [3.14771, 0.809316],
-    [1.12249, 0.754006],
-    [4.7352, 0.406031],
-    [-4.1572, 4.29895],
-];
-
-/// The target of `spec/tasks/paper.toml`.
-pub const TARGET: Pose = Pose {
-    position: [2.0166710746921925, 0.13996636886034725, -1.43192511932475],
-    quat_wxyz: [
-        0.3874560731031927,
-        0.2654610699800615,
-        -0.37163840872581944,
-        0.8008077827420479,
-    ],
-};
+pub use reactionless::reference::{ETA_HAT, Q0_DEG, TARGET};
 
 pub fn q0() -> [f64; 7] {
     Q0_DEG.map(f64::to_radians)
@@ -41,7 +22,7 @@ pub fn robot() -> Robot<7> {
 
 /// The reference task of spec §8.
 pub fn paper_task() -> Task<7, 4> {
-    Task::new(robot(), q0(), TARGET, Motion::new(30.0, 0.01, 1).unwrap()).unwrap()
+    reactionless::reference::paper_task().unwrap()
 }
 
 /// `|a − b| ≤ tol` element-wise, with a message naming the quantity.

@@ -54,6 +54,34 @@ pub enum Param {
     Degree,
     /// Component `i` (1-based) of the parameter vector η.
     Eta(u8),
+    /// Swarm size T.
+    Particles,
+    /// Iteration limit m_max.
+    MaxIterations,
+    /// Cognitive factor c1.
+    C1,
+    /// Social factor c2.
+    C2,
+    /// Inertia weight at the first iteration, ω_max.
+    WMax,
+    /// Inertia weight at the last iteration, ω_min.
+    WMin,
+    /// Success threshold σ_e on f.
+    Tolerance,
+    /// Half-width B of the initial box of η.
+    EtaBound,
+    /// Stagnation window (iterations).
+    StagnationWindow,
+    /// Relative improvement below which the swarm stagnates.
+    MinImprovement,
+    /// Re-initialisation spread ε₁ of subswarm S1.
+    Eps1,
+    /// Inertia boost ε₂ of subswarm S2.
+    Eps2,
+    /// Refinement target on f.
+    RefineTolerance,
+    /// Refinement budget (rollouts).
+    RefineRollouts,
 }
 
 /// Why a null-space computation lost rank.
@@ -116,6 +144,19 @@ pub enum Error {
     },
     /// The system inertia `H~b` is not positive definite (never for a valid model).
     SingularInertia,
+    /// A value that must not be negative is.
+    Negative(Param),
+    /// More than the fixed capacity was asked for.
+    CapacityExceeded {
+        /// What was asked for.
+        param: Param,
+        /// How many.
+        requested: u32,
+        /// The capacity compiled in.
+        capacity: u32,
+    },
+    /// ω_min is larger than ω_max.
+    InertiaWeightsInverted,
 }
 
 impl fmt::Display for Body {
@@ -146,6 +187,20 @@ impl fmt::Display for Param {
             Param::TimeStep => f.write_str("time step dt"),
             Param::Degree => f.write_str("time-law degree n"),
             Param::Eta(i) => write!(f, "eta component {i}"),
+            Param::Particles => f.write_str("particle count"),
+            Param::MaxIterations => f.write_str("max_iterations"),
+            Param::C1 => f.write_str("c1"),
+            Param::C2 => f.write_str("c2"),
+            Param::WMax => f.write_str("w_max"),
+            Param::WMin => f.write_str("w_min"),
+            Param::Tolerance => f.write_str("tolerance"),
+            Param::EtaBound => f.write_str("eta_bound"),
+            Param::StagnationWindow => f.write_str("stagnation window"),
+            Param::MinImprovement => f.write_str("min_relative_improvement"),
+            Param::Eps1 => f.write_str("eps1"),
+            Param::Eps2 => f.write_str("eps2"),
+            Param::RefineTolerance => f.write_str("refine_tolerance"),
+            Param::RefineRollouts => f.write_str("refine_max_rollouts"),
         }
     }
 }
@@ -201,6 +256,13 @@ impl fmt::Display for Error {
                 write!(f, "non-finite state at integration step {step}")
             }
             Error::SingularInertia => f.write_str("system inertia H~b is singular"),
+            Error::Negative(p) => write!(f, "{p} must not be negative"),
+            Error::CapacityExceeded {
+                param,
+                requested,
+                capacity,
+            } => write!(f, "{param} {requested} exceeds the capacity of {capacity}"),
+            Error::InertiaWeightsInverted => f.write_str("w_min must not exceed w_max"),
         }
     }
 }

@@ -1,0 +1,356 @@
+//! Local refinement beyond the paper: Levenberg–Marquardt on η after C-PSO reaches σ_e.
+//!
+//! Owns [`RefineConfig`], [`RefineReport`] and the refinement state machine. It never runs
+//! a rollout: the planner asks [`Refiner::next_eta`] which η to evaluate and hands each
+//! outcome back with [`Refiner::absorb`]. That keeps it budgeted and resumable exactly like
+//! the swarm.
+//!
+//! One iteration:
+//! 1. **Jacobian** of the 6-vector `e` (spec §6) by forward differences: `2K` rollouts at
+//!    `η + h·e_c`, `h = 1e-7·max|η|`.
+//! 2. **Step** `δ = −Jᵀ(J Jᵀ + λ μ I)⁻¹ e`, `μ = tr(J Jᵀ)/6`. By the push-through identity
+//!    this is Levenberg's `−(JᵀJ + λμI)⁻¹Jᵀe`, but it needs only a 6×6 solve whatever K is.
+//!    The step lies in the row space of J, so it ignores the direction along η, which leaves
+//!    the path unchanged.
+//! 3. **Trial** rollout at `η + δ`: accepted if it keeps the joint limits (Φ = 0) and lowers
+//!    f (then `λ ← λ/10` and a new Jacobian), else rejected (`λ ← 10λ`, same Jacobian).
+//!
+//! It stops when `f ≤ tolerance`, after `max_rollouts` rollouts, or when λ exceeds 1e8 (no
+//! descent left at rounding level). Only improvements are accepted, so the result is never
+//! worse than the C-PSO result.
+
+use crate::error::{Error, Param};
+use crate::rollout::Outcome;
+
+/// Relative finite-difference step.
+const FD_STEP: f64 = 1e-7;
+/// Initial damping (relative to μ).
+const LAMBDA_START: f64 = 1e-3;
+/// Damping at which refinement gives up.
+const LAMBDA_MAX: f64 = 1e8;
+/// Smallest damping.
+const LAMBDA_MIN: f64 = 1e-12;
+
+/// Refinement settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefineConfig {
+    /// Target on f (> 0), e.g. 1e-6.
+    pub tolerance: f64,
+    /// Most rollouts refinement may spend (≥ 1).
+    pub max_rollouts: u32,
+}
+
+impl RefineConfig {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// A non-finite or non-positive tolerance; a zero rollout budget.
+    pub fn validate(&self) -> Result<(), Error> {
+        if !self.tolerance.is_finite() {
+            return Err(Error::NotFinite(Param::RefineTolerance));
+        }
+        if self.tolerance <= 0.0 {
+            return Err(Error::NotPositive(Param::RefineTolerance));
+        }
+        if self.max_rollouts == 0 {
+            return Err(Error::NotPositive(Param::RefineRollouts));
+        }
+        Ok(())
+    }
+}
+
+/// Why refinement stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RefineStop {
+    /// `f ≤ tolerance`.
+    Reached,
+    /// The rollout budget is spent.
+    Budget,
+    /// λ grew past its limit: no descent direction left at rounding level.
+    Stalled,
+}
+
+/// What refinement did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefineReport {
+    /// Accepted steps.
+    pub iterations: u32,
+    /// Rollouts spent.
+    pub rollouts: u32,
+    /// Why it stopped.
+    pub stop: RefineStop,
+    /// f before refinement (the C-PSO result).
+    pub f_start: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Stage {
+    /// Evaluating Jacobian column `c` (`0..2K`).
+    Column(usize),
+    /// Evaluating the trial point.
+    Trial,
+}
+
+/// The refinement state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refiner<const N: usize, const K: usize> {
+    config: RefineConfig,
+    eta: [[f64; 2]; K],
+    outcome: Outcome<N>,
+    e: [f64; 6],
+    h: f64,
+    jac: [[[f64; 6]; 2]; K],
+    lambda: f64,
+    stage: Stage,
+    trial: [[f64; 2]; K],
+    iterations: u32,
+    rollouts: u32,
+    f_start: f64,
+    stop: Option<RefineStop>,
+}
+
+/// Result of absorbing one rollout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Next {
+    /// Evaluate [`Refiner::next_eta`] next.
+    Continue,
+    /// Refinement is over.
+    Done,
+}
+
+impl<const N: usize, const K: usize> Refiner<N, K> {
+    /// Starts from `eta` with its rollout `outcome`.
+    #[must_use]
+    pub fn new(config: RefineConfig, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Self {
+        let largest = eta
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(libm::fabs(*v)));
+        let stop = (outcome.f <= config.tolerance).then_some(RefineStop::Reached);
+        Self {
+            config,
+            eta,
+            outcome,
+            e: outcome.error.to_array(),
+            h: FD_STEP * largest,
+            jac: [[[0.0; 6]; 2]; K],
+            lambda: LAMBDA_START,
+            stage: Stage::Column(0),
+            trial: eta,
+            iterations: 0,
+            rollouts: 0,
+            f_start: outcome.f,
+            stop,
+        }
+    }
+
+    /// `true` once refinement has stopped.
+    #[must_use]
+    pub fn done(&self) -> bool {
+        self.stop.is_some()
+    }
+
+    /// The best point so far and its rollout.
+    #[must_use]
+    pub fn best(&self) -> (&[[f64; 2]; K], &Outcome<N>) {
+        (&self.eta, &self.outcome)
+    }
+
+    /// The report (stop reason `Budget` while still running).
+    #[must_use]
+    pub fn report(&self) -> RefineReport {
+        RefineReport {
+            iterations: self.iterations,
+            rollouts: self.rollouts,
+            stop: self.stop.unwrap_or(RefineStop::Budget),
+            f_start: self.f_start,
+        }
+    }
+
+    /// Current damping λ (relative to μ).
+    #[must_use]
+    pub fn lambda(&self) -> f64 {
+        self.lambda
+    }
+
+    /// The η to evaluate next.
+    #[must_use]
+    pub fn next_eta(&self) -> [[f64; 2]; K] {
+        match self.stage {
+            Stage::Column(c) => {
+                let mut eta = self.eta;
+                if let Some(v) = eta.get_mut(c / 2).and_then(|p| p.get_mut(c % 2)) {
+                    *v += self.h;
+                }
+                eta
+            }
+            Stage::Trial => self.trial,
+        }
+    }
+
+    /// Takes the rollout of [`Refiner::next_eta`] (`None` if it failed).
+    pub fn absorb(&mut self, result: Option<&Outcome<N>>) -> Next {
+        if self.stop.is_some() {
+            return Next::Done;
+        }
+        self.rollouts += 1;
+        match self.stage {
+            Stage::Column(c) => {
+                let column = match result {
+                    Some(o) => {
+                        let ep = o.error.to_array();
+                        let mut d = [0.0; 6];
+                        for ((d, a), b) in d.iter_mut().zip(ep.iter()).zip(self.e.iter()) {
+                            *d = (a - b) / self.h;
+                        }
+                        d
+                    }
+                    // A failed perturbed rollout: leave that direction out of this step.
+                    None => [0.0; 6],
+                };
+                if let Some(col) = self.jac.get_mut(c / 2).and_then(|p| p.get_mut(c % 2)) {
+                    *col = column;
+                }
+                if c + 1 < 2 * K {
+                    self.stage = Stage::Column(c + 1);
+                } else {
+                    self.plan_trial();
+                }
+            }
+            Stage::Trial => match result {
+                Some(o) if o.phi == 0.0 && o.f < self.outcome.f => {
+                    self.eta = self.trial;
+                    self.outcome = *o;
+                    self.e = o.error.to_array();
+                    self.iterations += 1;
+                    self.lambda = (self.lambda * 0.1).max(LAMBDA_MIN);
+                    if o.f <= self.config.tolerance {
+                        self.stop = Some(RefineStop::Reached);
+                    } else {
+                        self.stage = Stage::Column(0);
+                    }
+                }
+                _ => {
+                    self.lambda *= 10.0;
+                    if self.lambda > LAMBDA_MAX {
+                        self.stop = Some(RefineStop::Stalled);
+                    } else {
+                        self.plan_trial();
+                    }
+                }
+            },
+        }
+        if self.stop.is_none() && self.rollouts >= self.config.max_rollouts {
+            self.stop = Some(RefineStop::Budget);
+        }
+        if self.stop.is_some() {
+            Next::Done
+        } else {
+            Next::Continue
+        }
+    }
+
+    /// Computes the trial point from the current Jacobian and λ.
+    fn plan_trial(&mut self) {
+        // A = J Jᵀ (6×6) = Σ_c j_c j_cᵀ.
+        let mut a = [[0.0; 6]; 6];
+        for col in self.jac.iter().flatten() {
+            for (row, ci) in a.iter_mut().zip(col.iter()) {
+                for (v, cj) in row.iter_mut().zip(col.iter()) {
+                    *v += ci * cj;
+                }
+            }
+        }
+        let mut trace = 0.0;
+        for (i, row) in a.iter().enumerate() {
+            trace += row.get(i).copied().unwrap_or(0.0);
+        }
+        let damping = self.lambda * trace / 6.0;
+        for (i, row) in a.iter_mut().enumerate() {
+            if let Some(v) = row.get_mut(i) {
+                *v += damping;
+            }
+        }
+        let Some(y) = solve_spd(&a, &self.e) else {
+            self.stop = Some(RefineStop::Stalled);
+            return;
+        };
+        let mut trial = self.eta;
+        for (t, col) in trial.iter_mut().flatten().zip(self.jac.iter().flatten()) {
+            let dot: f64 = col.iter().zip(y.iter()).fold(0.0, |s, (c, y)| s + c * y);
+            *t -= dot;
+        }
+        self.trial = trial;
+        self.stage = Stage::Trial;
+    }
+}
+
+/// Solves `A x = b` for a symmetric positive-definite `A` (Cholesky); `None` if a pivot is
+/// not positive or not finite.
+fn solve_spd<const M: usize>(a: &[[f64; M]; M], b: &[f64; M]) -> Option<[f64; M]> {
+    // L row by row: L[i][j] = (A[i][j] − Σ_{k<j} L[i][k] L[j][k]) / L[j][j].
+    let mut l = [[0.0; M]; M];
+    for i in 0..M {
+        let (done, rest) = l.split_at_mut_checked(i)?;
+        let li = rest.first_mut()?;
+        let ai = a.get(i)?;
+        for j in 0..i {
+            let lj = done.get(j)?;
+            let dot: f64 = li
+                .iter()
+                .zip(lj.iter())
+                .take(j)
+                .fold(0.0, |s, (x, y)| s + x * y);
+            let d = *lj.get(j)?;
+            *li.get_mut(j)? = (ai.get(j)? - dot) / d;
+        }
+        let dot: f64 = li.iter().take(i).fold(0.0, |s, x| s + x * x);
+        let pivot = ai.get(i)? - dot;
+        if pivot.is_nan() || pivot <= 0.0 || !pivot.is_finite() {
+            return None;
+        }
+        *li.get_mut(i)? = libm::sqrt(pivot);
+    }
+    // L y = b, then Lᵀ x = y.
+    let mut y = [0.0; M];
+    for i in 0..M {
+        let li = l.get(i)?;
+        let dot: f64 = li
+            .iter()
+            .zip(y.iter())
+            .take(i)
+            .fold(0.0, |s, (x, v)| s + x * v);
+        *y.get_mut(i)? = (b.get(i)? - dot) / li.get(i)?;
+    }
+    let mut x = [0.0; M];
+    for i in (0..M).rev() {
+        let mut s = *y.get(i)?;
+        for k in i + 1..M {
+            s -= l.get(k)?.get(i)? * x.get(k)?;
+        }
+        *x.get_mut(i)? = s / l.get(i)?.get(i)?;
+    }
+    Some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+
+    #[test]
+    fn spd_solve_matches_the_system() {
+        let a = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
+        let b = [1.0, -2.0, 0.5];
+        let x = solve_spd(&a, &b).unwrap();
+        for i in 0..3 {
+            let r: f64 = (0..3).map(|j| a[i][j] * x[j]).sum::<f64>() - b[i];
+            assert!(r.abs() < 1e-15);
+        }
+        assert!(solve_spd(&[[1.0, 2.0], [2.0, 1.0]], &[1.0, 1.0]).is_none());
+        assert!(solve_spd(&[[f64::NAN]], &[1.0]).is_none());
+    }
+}

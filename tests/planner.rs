@@ -1,0 +1,408 @@
+//! The C-PSO planner (REQ: issue 3): swarm rules on hand-made cases, determinism and
+//! budget slicing bit for bit, the reference task for seeds 1..10, refinement, execution.
+#![allow(
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    missing_docs
+)]
+
+mod common;
+use common::*;
+use reactionless::random::Stream;
+use reactionless::{
+    Cost, Error, Event, Param, Plan, Planner, PlannerConfig, RefineConfig, RefineStop, Sample,
+    Setpoints, Status, Swarm, SwarmConfig, Task, TruthModel,
+};
+
+type RefPlanner = Planner<7, 4, 64>;
+
+fn run(planner: &mut RefPlanner, budget: u32) -> (Status<7, 4>, u64) {
+    let mut calls = 0u64;
+    loop {
+        calls += 1;
+        match planner.step(budget, &mut ()).unwrap() {
+            Status::Running(_) => {}
+            s => return (s, calls),
+        }
+    }
+}
+
+fn plan_of(s: &Status<7, 4>) -> &Plan<7, 4> {
+    match s {
+        Status::Converged(p) | Status::Exhausted(p) => p,
+        Status::Running(_) => panic!("still running"),
+    }
+}
+
+fn bits(p: &Plan<7, 4>) -> Vec<u64> {
+    let o = &p.outcome;
+    p.eta
+        .iter()
+        .flatten()
+        .chain(&o.q_final)
+        .chain(&o.joint_min)
+        .chain(&o.joint_max)
+        .chain(&o.end_pose.position)
+        .chain(&o.end_pose.quat_wxyz)
+        .chain(&[o.f, o.phi, o.g, p.swarm_f])
+        .map(|v| v.to_bits())
+        .chain([
+            u64::from(p.iterations),
+            u64::from(p.rollouts),
+            u64::from(p.stagnation_events),
+        ])
+        .collect()
+}
+
+// --- swarm rules on hand-made cases -------------------------------------------------
+
+const FEAS: fn(f64) -> Cost = |f| Cost { phi: 0.0, f };
+const INFEAS: fn(f64, f64) -> Cost = |phi, f| Cost { phi, f };
+
+#[test]
+fn constraint_domination_rules() {
+    assert!(
+        FEAS(10.0).dominates(&INFEAS(1e-9, 0.0)),
+        "feasible beats infeasible"
+    );
+    assert!(!INFEAS(1e-9, 0.0).dominates(&FEAS(10.0)));
+    assert!(FEAS(0.1).dominates(&FEAS(0.2)), "two feasible: smaller f");
+    assert!(!FEAS(0.2).dominates(&FEAS(0.1)));
+    assert!(
+        INFEAS(0.1, 9.0).dominates(&INFEAS(0.2, 0.0)),
+        "two infeasible: smaller Φ"
+    );
+    assert!(
+        INFEAS(0.1, 1.0).dominates(&INFEAS(0.1, 2.0)),
+        "equal Φ: smaller f"
+    );
+    assert!(!FEAS(0.1).dominates(&FEAS(0.1)), "ties do not dominate");
+    assert!(INFEAS(5.0, 5.0).dominates(&Cost::FAILED));
+    assert!(!Cost::FAILED.dominates(&Cost::FAILED));
+}
+
+fn small_swarm(particles: u32) -> (Swarm<2, 8>, Stream) {
+    let mut stream = Stream::new(3);
+    let mut cfg = SwarmConfig::reference(particles);
+    cfg.stagnation.window = 3;
+    (Swarm::new(&cfg, &mut stream).unwrap(), stream)
+}
+
+#[test]
+fn gbest_is_the_best_feasible_pbest_else_the_least_violating() {
+    let (mut s, _) = small_swarm(4);
+    for (j, c) in [
+        INFEAS(0.3, 0.0),
+        INFEAS(0.1, 5.0),
+        INFEAS(0.2, 0.0),
+        INFEAS(0.1, 4.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        s.record(j, c);
+    }
+    s.end_generation();
+    assert_eq!(s.gbest_index(), 3, "least violating, then smaller f");
+    s.record(0, FEAS(0.9));
+    s.end_generation();
+    assert_eq!(s.gbest_index(), 0, "any feasible beats every infeasible");
+    s.record(2, FEAS(0.5));
+    s.record(1, FEAS(0.5));
+    s.end_generation();
+    assert_eq!(s.gbest_index(), 1, "lowest index among equals");
+    // pbest only moves on domination.
+    let before = s.particle(1).unwrap().best;
+    s.record(1, INFEAS(0.01, 0.0));
+    assert_eq!(s.particle(1).unwrap().best, before);
+    assert_eq!(s.particle(1).unwrap().best_cost, FEAS(0.5));
+}
+
+#[test]
+fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
+    let (mut s, mut stream) = small_swarm(7);
+    for j in 0..7 {
+        s.record(j, FEAS(1.0 + j as f64));
+    }
+    // window = 3: generations 0..=2 fill it, generation 3 has no improvement → alarm.
+    let alarms: Vec<bool> = (0..4).map(|_| s.end_generation()).collect();
+    assert_eq!(alarms, [false, false, false, true]);
+    assert_eq!(s.stagnation_events(), 1);
+    // Give everyone a velocity, then move: S1 restarts with zero velocity near gbest.
+    s.advance(1, &mut stream);
+    let (g, _) = s.gbest();
+    let mut s1 = 0;
+    for j in 0..7 {
+        let p = s.particle(j).unwrap();
+        if p.velocity == [[0.0; 2]; 2] {
+            s1 += 1;
+            for (x, gb) in p.position.iter().flatten().zip(g.iter().flatten()) {
+                assert!(
+                    *x >= *gb && *x < *gb + 0.5,
+                    "S1 restarts in gbest + ε₁·U(0,1)"
+                );
+            }
+        }
+    }
+    assert_eq!(s1, 3, "⌊7/2⌋ particles in S1, the rest in S2");
+    // A steady improvement never fires.
+    let (mut s, _) = small_swarm(2);
+    for k in 0..20 {
+        s.record(0, FEAS(1.0 / (k as f64 + 1.0)));
+        assert!(!s.end_generation());
+    }
+}
+
+#[test]
+fn m_max_is_honoured() {
+    let task = paper_task();
+    let mut cfg = PlannerConfig::reference(1);
+    cfg.swarm.max_iterations = 2;
+    cfg.tolerance = 1e-12;
+    let mut p = RefPlanner::new(task, cfg).unwrap();
+    let (s, _) = run(&mut p, u32::MAX);
+    let Status::Exhausted(plan) = s else {
+        panic!("expected exhaustion")
+    };
+    assert_eq!(plan.iterations, 2);
+    assert_eq!(plan.rollouts, 40 * 3);
+    assert_eq!(plan.outcome.phi, 0.0, "the best feasible point is reported");
+}
+
+#[test]
+fn invalid_settings_are_typed_errors() {
+    let task = paper_task();
+    let bad = |edit: fn(&mut PlannerConfig)| {
+        let mut c = PlannerConfig::reference(1);
+        edit(&mut c);
+        RefPlanner::new(task.clone(), c).unwrap_err()
+    };
+    assert_eq!(
+        bad(|c| c.swarm.particles = 0),
+        Error::NotPositive(Param::Particles)
+    );
+    assert_eq!(
+        bad(|c| c.swarm.particles = 65),
+        Error::CapacityExceeded {
+            param: Param::Particles,
+            requested: 65,
+            capacity: 64
+        }
+    );
+    assert_eq!(
+        bad(|c| c.swarm.max_iterations = 0),
+        Error::NotPositive(Param::MaxIterations)
+    );
+    assert_eq!(
+        bad(|c| c.tolerance = 0.0),
+        Error::NotPositive(Param::Tolerance)
+    );
+    assert_eq!(
+        bad(|c| c.tolerance = f64::NAN),
+        Error::NotFinite(Param::Tolerance)
+    );
+    assert_eq!(
+        bad(|c| c.swarm.eta_bound = -1.0),
+        Error::NotPositive(Param::EtaBound)
+    );
+    assert_eq!(bad(|c| c.swarm.w_min = 0.95), Error::InertiaWeightsInverted);
+    assert_eq!(bad(|c| c.swarm.c1 = -0.1), Error::Negative(Param::C1));
+    assert_eq!(
+        bad(|c| c.swarm.c2 = f64::INFINITY),
+        Error::NotFinite(Param::C2)
+    );
+    assert_eq!(
+        bad(|c| c.swarm.stagnation.window = 0),
+        Error::NotPositive(Param::StagnationWindow)
+    );
+    assert_eq!(
+        bad(|c| c.swarm.stagnation.window = 65),
+        Error::CapacityExceeded {
+            param: Param::StagnationWindow,
+            requested: 65,
+            capacity: 64
+        }
+    );
+    assert_eq!(
+        bad(|c| c.refine = Some(RefineConfig {
+            tolerance: 0.0,
+            max_rollouts: 10
+        })),
+        Error::NotPositive(Param::RefineTolerance)
+    );
+    assert_eq!(
+        bad(|c| c.refine = Some(RefineConfig {
+            tolerance: 1e-6,
+            max_rollouts: 0
+        })),
+        Error::NotPositive(Param::RefineRollouts)
+    );
+}
+
+// --- determinism --------------------------------------------------------------------
+
+#[test]
+fn same_seed_same_bits_different_seed_different_bits() {
+    let plan = |seed| {
+        *plan_of(
+            &run(
+                &mut RefPlanner::new(paper_task(), PlannerConfig::reference(seed)).unwrap(),
+                u32::MAX,
+            )
+            .0,
+        )
+    };
+    let (a, b, c) = (plan(2), plan(2), plan(5));
+    assert_eq!(bits(&a), bits(&b));
+    assert_ne!(a.eta, c.eta);
+}
+
+#[test]
+fn budget_slicing_gives_identical_bits() {
+    let mut cfg = PlannerConfig::reference(2);
+    cfg.refine = Some(RefineConfig {
+        tolerance: 1e-8,
+        max_rollouts: 60,
+    });
+    let (reference, calls) = run(&mut RefPlanner::new(paper_task(), cfg).unwrap(), u32::MAX);
+    assert_eq!(calls, 1);
+    let want = bits(plan_of(&reference));
+    for budget in [1, 7, 1000, 3000] {
+        let mut p = RefPlanner::new(paper_task(), cfg).unwrap();
+        let (s, calls) = run(&mut p, budget);
+        assert_eq!(bits(plan_of(&s)), want, "budget {budget}");
+        assert!(calls > 1, "budget {budget} took {calls} calls");
+        // Finished planners keep answering the same.
+        assert_eq!(p.step(5, &mut ()).unwrap(), s);
+    }
+}
+
+// --- the reference task ---------------------------------------------------------------
+
+#[test]
+fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
+    let mut iterations = Vec::new();
+    for seed in 1..=10 {
+        let task = paper_task();
+        let mut cfg = PlannerConfig::reference(seed);
+        cfg.refine = Some(RefineConfig {
+            tolerance: 1e-6,
+            max_rollouts: 400,
+        });
+        let mut history = Vec::new();
+        let mut observer = |e: &Event| {
+            if let Event::Generation { best, .. } = e {
+                history.push(best.f);
+            }
+        };
+        let mut p = RefPlanner::new(task.clone(), cfg).unwrap();
+        let s = loop {
+            match p.step(u32::MAX, &mut observer).unwrap() {
+                Status::Running(_) => {}
+                s => break s,
+            }
+        };
+        let Status::Converged(plan) = s else {
+            panic!("seed {seed} did not converge: {s:?}")
+        };
+        assert!(plan.iterations <= 200);
+        assert!(
+            plan.swarm_f <= 0.05,
+            "seed {seed}: C-PSO f {}",
+            plan.swarm_f
+        );
+        assert_eq!(plan.outcome.phi, 0.0);
+        let r = plan.refine.unwrap();
+        assert_eq!(r.stop, RefineStop::Reached, "seed {seed}");
+        assert!(
+            plan.outcome.f <= 1e-6,
+            "seed {seed}: refined f {}",
+            plan.outcome.f
+        );
+        assert!(plan.outcome.max_abs_qd <= task.robot().qd_max());
+        assert!(
+            history.windows(2).all(|w| w[1] <= w[0]),
+            "gbest never gets worse"
+        );
+        // The truth model: the base barely moves.
+        let mut truth = TruthModel::new(&task, 10);
+        let again = task.rollout(&plan.eta, &mut truth).unwrap();
+        assert_eq!(again, plan.outcome, "the plan's outcome is reproducible");
+        let deg = truth.max_angle().to_degrees();
+        assert!(deg < 0.01, "seed {seed}: base disturbance {deg}°");
+        iterations.push(plan.iterations);
+    }
+    iterations.sort_unstable();
+    println!("iterations for seeds 1..10: {iterations:?}");
+}
+
+// --- execution ----------------------------------------------------------------------
+
+#[test]
+fn streamed_setpoints_are_the_evaluated_rollout_bit_for_bit() {
+    let task = paper_task();
+    let (s, _) = run(
+        &mut RefPlanner::new(task.clone(), PlannerConfig::reference(2)).unwrap(),
+        u32::MAX,
+    );
+    let plan = plan_of(&s);
+    // Reference stream: a plain rollout with a sink.
+    let mut reference = Vec::new();
+    task.rollout(&plan.eta, &mut |s: &Sample<7>| reference.push(*s))
+        .unwrap();
+    let mut sp = Setpoints::new(&task, &plan.eta).unwrap();
+    let mut k = 0;
+    while let Some(s) = sp.next(&task).unwrap() {
+        assert_eq!(s, reference[k], "setpoint {k}");
+        k += 1;
+    }
+    assert_eq!(k, reference.len());
+    assert_eq!(
+        sp.outcome().unwrap(),
+        &plan.outcome,
+        "the flown trajectory ends where the plan said"
+    );
+    assert_eq!(sp.next(&task).unwrap(), None);
+}
+
+#[test]
+fn planning_never_allocates() {
+    let task = paper_task();
+    let mut p = RefPlanner::new(task, PlannerConfig::reference(2)).unwrap();
+    let mut done = false;
+    let info = allocation_counter::measure(|| {
+        while let Status::Running(_) = p.step(50_000, &mut ()).unwrap() {}
+        done = true;
+    });
+    assert!(done);
+    assert_eq!(info.count_total, 0);
+}
+
+#[test]
+fn a_task_of_another_robot_plans_too() {
+    // Generic over N: the 6-DOF random robot of the physics tests, target from a rollout.
+    let mut rng = rng(42);
+    let d = random_robot::<6>(&mut rng);
+    let q0 = random_q(&mut rng, &d);
+    let robot = reactionless::Robot::new(&d).unwrap();
+    let motion = reactionless::Motion::new(10.0, 0.01, 1).unwrap();
+    let probe = Task::<6, 3>::new(robot.clone(), q0, TARGET, motion).unwrap();
+    let made = probe
+        .rollout(&[[1.0, -2.0], [0.5, 3.0], [-2.0, 1.0]], &mut ())
+        .unwrap();
+    let task = Task::<6, 3>::new(robot, q0, made.end_pose, motion).unwrap();
+    let mut cfg = PlannerConfig::reference(1);
+    cfg.swarm.particles = 30;
+    let mut p: Planner<6, 3, 32> = Planner::new(task, cfg).unwrap();
+    let s = loop {
+        match p.step(u32::MAX, &mut ()).unwrap() {
+            Status::Running(_) => {}
+            s => break s,
+        }
+    };
+    match s {
+        Status::Converged(plan) => assert!(plan.outcome.f <= 0.05 && plan.outcome.phi == 0.0),
+        other => panic!("{other:?}"),
+    }
+}

@@ -8,9 +8,10 @@
 //! `x` of the base frame is at `p₀ + R₀ x`, and linear-momentum conservation fixes
 //! `p₀ = r_g(0) − R₀ r_g(q)` (the system CoM never moves, [`Frames::end_pose`]).
 //!
-//! Cost: one `sincos`, two 3×3 products and three 3×3·vector products per joint.
+//! Cost per joint: one `sincos`, two column-pair rotations (`Rx` of the twist, `Rz` of the
+//! joint angle) and two 3×3·vector products.
 
-use crate::geometry::{Mat3, Pose, Vec3, mat_mul, mat_vec, mul_rz, quat_matrix};
+use crate::geometry::{Mat3, Pose, Vec3, mat_mul, mat_vec, mul_rx, mul_rz, quat_matrix};
 use crate::model::Robot;
 
 /// Attitude (joint frame, `z` = joint axis) and positions of one link, base frame.
@@ -68,13 +69,17 @@ impl<const N: usize> Frames<N> {
         }; N];
         // All sincos calls first: a call clobbers every float register, so keeping them out
         // of the recursion below lets the carried frame stay in registers.
-        let trig = q.map(libm::sincos);
-        let mut r_prev = Mat3::identity();
+        let mut trig = [(0.0, 1.0); N];
+        for ((t, qi), seg) in trig.iter_mut().zip(q.iter()).zip(robot.segments.iter()) {
+            *t = libm::sincos(qi + seg.theta);
+        }
+        let mut r_prev = robot.root;
         let mut p_prev = Vec3::zeros();
         let mut moment = robot.base_com * robot.base_mass;
         for ((link, seg), &(s, c)) in links.iter_mut().zip(robot.segments.iter()).zip(trig.iter()) {
             let p = p_prev + mat_vec(&r_prev, &seg.offset);
-            let r = mul_rz(&mat_mul(&r_prev, &seg.rot), s, c);
+            let (sb, cb) = seg.twist;
+            let r = mul_rz(&mul_rx(&r_prev, sb, cb), s, c);
             let com = p + mat_vec(&r, &seg.com);
             moment += com * seg.mass;
             link.rot = r;

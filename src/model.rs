@@ -15,7 +15,7 @@
 //! see [`crate::kinematics`].
 
 use crate::error::{Body, Error, Param};
-use crate::geometry::{Mat3, Sym3, Vec3, frame_with_z, rpy_matrix};
+use crate::geometry::{Mat3, Sym3, Vec3, frame_with_z, rot_z, rpy_matrix, zxz_angles};
 
 /// Tolerance on the norm of unit vectors and quaternions in inputs: `|‖v‖ − 1| ≤ 1e-6`.
 pub const UNIT_TOLERANCE: f64 = 1e-6;
@@ -141,19 +141,25 @@ pub struct RobotDesc<const N: usize> {
 }
 
 /// A link, expressed in its joint frame (`z` = joint axis).
+///
+/// Joint frames are chosen DH-style: the rotation from joint frame `i − 1` to joint frame
+/// `i` at `q = 0` is `Rx(b_i)·Rz(θ_i)`, so forward kinematics applies two column-pair
+/// rotations per joint instead of a full 3×3 product.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Segment {
-    /// Rotation from the previous joint frame to this joint frame at `q = 0`:
-    /// `Q_{i−1}ᵀ · R_origin · Q_i`.
-    pub(crate) rot: Mat3,
+    /// `(sin b_i, cos b_i)`: the twist between joint axes `i − 1` and `i`.
+    pub(crate) twist: (f64, f64),
+    /// Offset `θ_i` (rad) added to `q_i`.
+    pub(crate) theta: f64,
     /// Joint position in the previous joint frame (m): `Q_{i−1}ᵀ · xyz`.
     pub(crate) offset: Vec3,
     /// Link mass (kg).
     pub(crate) mass: f64,
     /// Link centre of mass in the joint frame (m).
     pub(crate) com: Vec3,
-    /// Link inertia about its centre of mass, joint-frame axes (kg m²).
-    pub(crate) inertia: Sym3,
+    /// Cholesky factor `L` of the link inertia about its centre of mass, joint-frame axes
+    /// (`I = L·Lᵀ`, kg m²; lower-triangular).
+    pub(crate) inertia: Mat3,
 }
 
 /// A validated robot model. Immutable; construct with [`Robot::new`].
@@ -161,6 +167,8 @@ pub(crate) struct Segment {
 pub struct Robot<const N: usize> {
     desc: RobotDesc<N>,
     pub(crate) segments: [Segment; N],
+    /// Attitude of joint frame 0 in the base frame (a rotation about the base `z`).
+    pub(crate) root: Mat3,
     /// Base mass (kg).
     pub(crate) base_mass: f64,
     /// Base centre of mass in the base frame (m).
@@ -194,37 +202,62 @@ impl<const N: usize> Robot<N> {
         const { assert!(N >= 1 && N <= 255, "joint count must be in 1..=255") };
         let (base_mass, base_com, base_inertia) = validate_body(&desc.base, Body::Base)?;
         let mut segments = [Segment {
-            rot: Mat3::identity(),
+            twist: (0.0, 1.0),
+            theta: 0.0,
             offset: Vec3::zeros(),
             mass: 0.0,
             com: Vec3::zeros(),
-            inertia: Sym3::ZERO,
+            inertia: Mat3::zeros(),
         }; N];
         let mut lower = [0.0; N];
         let mut upper = [0.0; N];
         let mut qd_max = f64::INFINITY;
         let mut total_mass = base_mass;
-        // Q_{i−1}: the joint frame of the previous body (the base frame for joint 1).
+        // Pass 1: a joint frame Q_i per joint (z on the axis, Q_0 = base frame) and the
+        // ZXZ angles of C_i = Q_{i−1}ᵀ R_origin Q_i = Rz(a_i) Rx(b_i) Rz(c_i).
+        let mut frames = [Mat3::identity(); N];
+        let mut zxz = [(0.0, 0.0, 0.0); N];
         let mut q_prev = Mat3::identity();
+        let items = desc
+            .joints
+            .iter()
+            .zip(frames.iter_mut())
+            .zip(zxz.iter_mut());
+        for (i, ((joint, frame), angles)) in items.enumerate() {
+            let axis = validate_joint(joint, (i + 1) as u8)?;
+            *frame = frame_with_z(&axis);
+            *angles = zxz_angles(&(q_prev.transpose() * joint.origin.rotation() * *frame));
+            q_prev = *frame;
+        }
+        // Pass 2: turn each joint frame about its axis by φ_i = a_{i+1} (φ_N = 0), which
+        // leaves C'_i = Rz(−φ_{i−1}) C_i Rz(φ_i) = Rx(b_i) Rz(c_i + φ_i).
+        let first_a = zxz.first().map_or(0.0, |z| z.0);
+        let root = rot_z(first_a);
+        let mut q_prev = root;
         let items = desc
             .joints
             .iter()
             .zip(desc.links.iter())
             .zip(segments.iter_mut())
-            .zip(lower.iter_mut().zip(upper.iter_mut()));
-        for (i, (((joint, link), seg), (lo, up))) in items.enumerate() {
+            .zip(lower.iter_mut().zip(upper.iter_mut()))
+            .zip(frames.iter().zip(zxz.iter()))
+            .enumerate();
+        for (i, ((((joint, link), seg), (lo, up)), (frame, &(_, b, c)))) in items {
             let j = (i + 1) as u8;
-            let axis = validate_joint(joint, j)?;
             let (mass, com, inertia) = validate_body(link, Body::Link(j))?;
-            let q_this = frame_with_z(&axis);
+            let phi = zxz.get(i + 1).map_or(0.0, |z| z.0);
+            let q_this = frame * rot_z(phi);
             let q_this_t = q_this.transpose();
-            let q_prev_t = q_prev.transpose();
             *seg = Segment {
-                rot: q_prev_t * joint.origin.rotation() * q_this,
-                offset: q_prev_t * joint.origin.translation(),
+                twist: libm::sincos(b),
+                theta: c + phi,
+                offset: q_prev.transpose() * joint.origin.translation(),
                 mass,
                 com: q_this_t * com,
-                inertia: inertia.rotated(&q_this_t),
+                inertia: inertia
+                    .rotated(&q_this_t)
+                    .cholesky()
+                    .ok_or(Error::InertiaNotPositiveDefinite(Body::Link(j)))?,
             };
             *lo = joint.lower;
             *up = joint.upper;
@@ -239,6 +272,7 @@ impl<const N: usize> Robot<N> {
         Ok(Self {
             desc: *desc,
             segments,
+            root,
             base_mass,
             base_com,
             base_inertia,

@@ -54,7 +54,7 @@ fn backward_pass<const N: usize>(
     for (((col, sub), link), seg) in items {
         let d = link.com - rg;
         inertia = inertia
-            .add(&seg.inertia.rotated(&link.rot))
+            .add(&Sym3::rotated_factor(&link.rot, &seg.inertia))
             .add(&Sym3::point_mass(seg.mass, &d));
         moment += d * seg.mass;
         mass += seg.mass;

@@ -3,7 +3,7 @@
 #![allow(missing_docs)]
 
 use core::mem::size_of;
-use reactionless::{Basis, Frames, Outcome, Robot, Rollout, Task, TimeLaw};
+use reactionless::{Basis, Frames, Outcome, Planner, Robot, Rollout, Task, TimeLaw};
 
 #[test]
 fn documented_sizes_for_the_reference_robot() {
@@ -15,10 +15,12 @@ fn documented_sizes_for_the_reference_robot() {
         ("TimeLaw<4>", size_of::<TimeLaw<4>>()),
         ("Frames<7>", size_of::<Frames<7>>()),
         ("Outcome<7>", size_of::<Outcome<7>>()),
+        ("Planner<7, 4, 64>", size_of::<Planner<7, 4, 64>>()),
     ];
     for (name, size) in sizes {
         println!("{name}: {size} bytes");
     }
-    assert_eq!(size_of::<Task<7, 4>>(), 3528);
+    assert_eq!(size_of::<Task<7, 4>>(), 3432);
     assert_eq!(size_of::<Rollout<7, 4>>(), 848);
+    assert_eq!(size_of::<Planner<7, 4, 64>>(), 22376);
 }

@@ -406,12 +406,15 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 particle,
             } => self.absorb_swarm(iteration, particle, result, observer),
             Phase::Refine(mut r) => {
+                let trial = r.at_trial();
                 let next = r.absorb(result.as_ref().ok());
                 let (eta, best) = r.best();
-                observer.event(&Event::RefineTrial {
-                    f: best.f,
-                    lambda: r.lambda(),
-                });
+                if trial {
+                    observer.event(&Event::RefineTrial {
+                        f: best.f,
+                        lambda: r.lambda(),
+                    });
+                }
                 self.phase = match next {
                     Next::Continue => Phase::Refine(r),
                     Next::Done => {

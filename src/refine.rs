@@ -191,6 +191,12 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
         }
     }
 
+    /// `true` if the next rollout is a trial step (not a Jacobian column).
+    #[must_use]
+    pub fn at_trial(&self) -> bool {
+        self.stage == Stage::Trial
+    }
+
     /// Takes the rollout of [`Refiner::next_eta`] (`None` if it failed).
     pub fn absorb(&mut self, result: Option<&Outcome<N>>) -> Next {
         if self.stop.is_some() {

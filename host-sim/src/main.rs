@@ -55,12 +55,42 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Plan a task with C-PSO (and refinement): writes DIR/plan.json, DIR/trajectory.csv,
+    /// DIR/summary.json. Exit code 0 converged, 1 not converged, 2 bad input.
+    Plan {
+        /// Task file (TOML).
+        task: PathBuf,
+        /// Output directory (replaced atomically).
+        #[arg(long)]
+        out: PathBuf,
+        /// Seed of the random stream (overrides the task's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Refine after C-PSO until f ≤ this (overrides the task's refine_tolerance).
+        #[arg(long)]
+        refine_tolerance: Option<f64>,
+    },
+    /// Time the core on a task: one step, one rollout, and planning over seeds 1..10.
+    Bench {
+        /// Task file (TOML).
+        task: PathBuf,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Model { urdf, ee, q_deg } => cmd::model::run(&urdf, ee.as_deref(), &q_deg.0),
         Command::Rollout { task, eta, out } => cmd::rollout::run(&task, &eta.0, &out),
+        Command::Plan {
+            task,
+            out,
+            seed,
+            refine_tolerance,
+        } => cmd::plan::run(&task, &out, seed, refine_tolerance),
+        Command::Bench { task, json } => cmd::bench::run(&task, json),
     }
 }
 

@@ -6,7 +6,10 @@
 
 use crate::error::CliError;
 use crate::urdf::{self, Chain};
-use reactionless::{Error as CoreError, Motion, Param, Pose, Robot, Task};
+use reactionless::{
+    Error as CoreError, Motion, Param, PlannerConfig, Pose, RefineConfig, Robot, StagnationConfig,
+    SwarmConfig, Task,
+};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -94,6 +97,10 @@ pub struct PlannerSection {
     pub eta_bound: f64,
     /// Seed of the xoshiro256++ stream.
     pub seed: u64,
+    /// Refine after C-PSO until f ≤ this (absent: no refinement).
+    pub refine_tolerance: Option<f64>,
+    /// Most rollouts refinement may spend.
+    pub refine_max_rollouts: u32,
     /// `[planner.stagnation]`.
     pub stagnation: StagnationSection,
 }
@@ -110,6 +117,8 @@ impl Default for PlannerSection {
             tolerance: 0.05,
             eta_bound: 5.0,
             seed: 1,
+            refine_tolerance: None,
+            refine_max_rollouts: 400,
             stagnation: StagnationSection::default(),
         }
     }
@@ -318,5 +327,93 @@ impl LoadedTask {
             )),
             other => self.err(other),
         })
+    }
+
+    /// The planner settings of `[planner]`, with optional overrides from the command line,
+    /// validated against a swarm capacity of `capacity`.
+    pub fn planner(
+        &self,
+        capacity: usize,
+        seed: Option<u64>,
+        refine_tolerance: Option<f64>,
+    ) -> Result<PlannerConfig, CliError> {
+        let p = &self.file.planner;
+        let st = &p.stagnation;
+        let refine_tolerance = refine_tolerance.or(p.refine_tolerance);
+        let config = PlannerConfig {
+            swarm: SwarmConfig {
+                particles: p.particles,
+                max_iterations: p.max_iterations,
+                c1: p.c1,
+                c2: p.c2,
+                w_max: p.w_max,
+                w_min: p.w_min,
+                eta_bound: p.eta_bound,
+                stagnation: StagnationConfig {
+                    window: st.window,
+                    min_relative_improvement: st.min_relative_improvement,
+                    eps1: st.eps1,
+                    eps2: st.eps2,
+                },
+            },
+            tolerance: p.tolerance,
+            seed: seed.unwrap_or(p.seed),
+            refine: refine_tolerance.map(|tolerance| RefineConfig {
+                tolerance,
+                max_rollouts: p.refine_max_rollouts,
+            }),
+        };
+        config.validate(capacity).map_err(|e| {
+            let (key, value): (&str, String) = match e {
+                CoreError::NotFinite(q) | CoreError::NotPositive(q) | CoreError::Negative(q) => {
+                    match q {
+                        Param::Particles => ("particles", p.particles.to_string()),
+                        Param::MaxIterations => ("max_iterations", p.max_iterations.to_string()),
+                        Param::C1 => ("c1", p.c1.to_string()),
+                        Param::C2 => ("c2", p.c2.to_string()),
+                        Param::WMax => ("w_max", p.w_max.to_string()),
+                        Param::WMin => ("w_min", p.w_min.to_string()),
+                        Param::Tolerance => ("tolerance", p.tolerance.to_string()),
+                        Param::EtaBound => ("eta_bound", p.eta_bound.to_string()),
+                        Param::StagnationWindow => ("stagnation.window", st.window.to_string()),
+                        Param::MinImprovement => (
+                            "stagnation.min_relative_improvement",
+                            st.min_relative_improvement.to_string(),
+                        ),
+                        Param::Eps1 => ("stagnation.eps1", st.eps1.to_string()),
+                        Param::Eps2 => ("stagnation.eps2", st.eps2.to_string()),
+                        Param::RefineTolerance => (
+                            "refine_tolerance",
+                            format!("{}", refine_tolerance.unwrap_or(f64::NAN)),
+                        ),
+                        Param::RefineRollouts => {
+                            ("refine_max_rollouts", p.refine_max_rollouts.to_string())
+                        }
+                        _ => ("?", String::new()),
+                    }
+                }
+                CoreError::CapacityExceeded {
+                    param: Param::StagnationWindow,
+                    ..
+                } => ("stagnation.window", st.window.to_string()),
+                CoreError::CapacityExceeded { .. } => ("particles", p.particles.to_string()),
+                CoreError::InertiaWeightsInverted => {
+                    ("w_min", format!("{} (w_max = {})", p.w_min, p.w_max))
+                }
+                _ => ("?", String::new()),
+            };
+            let why = match e {
+                CoreError::NotFinite(_) => "is not a finite number".to_string(),
+                CoreError::NotPositive(_) => "must be > 0".to_string(),
+                CoreError::Negative(_) => "must not be negative".to_string(),
+                CoreError::CapacityExceeded { capacity, .. } => {
+                    format!("exceeds the capacity of {capacity}")
+                }
+                CoreError::InertiaWeightsInverted => "must not exceed w_max".to_string(),
+                other => other.to_string(),
+            };
+            self.err(format!("[planner] {key} = {value} {why}"))
+        })?;
+        Ok(config)
     }
 }

@@ -1,0 +1,134 @@
+//! `host-sim bench`: in-process timings of the core on a task, after a warm-up.
+//!
+//! `step_ns`: median over single-rollout slices of 100 integration steps, divided by 100.
+//! `rollout_us`: median of 21 full rollouts. `plan_s_median`, `plan_iterations_median`,
+//! `plan_rollouts_median`: over seeds 1..=10 with the task's planner settings. The η timed
+//! for steps and rollouts is the seed-1 plan's.
+
+use crate::cmd::plan::{HOST_CAPACITY, plan};
+use crate::error::CliError;
+use crate::taskfile::{self, LoadedTask};
+use crate::with_dims;
+use reactionless::{Progress, Rollout, Status};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// The report.
+#[derive(Serialize)]
+pub struct BenchJson {
+    /// Joint count.
+    pub n: usize,
+    /// Integration steps per rollout.
+    pub steps_per_rollout: u32,
+    /// Median time of one integration step (ns).
+    pub step_ns: f64,
+    /// Median time of one full rollout (µs).
+    pub rollout_us: f64,
+    /// Median planning time over seeds 1..=10 (s).
+    pub plan_s_median: f64,
+    /// Median C-PSO iterations over seeds 1..=10.
+    pub plan_iterations_median: f64,
+    /// Median rollouts over seeds 1..=10.
+    pub plan_rollouts_median: f64,
+    /// Seeds (of 10) that converged.
+    pub plan_converged: u32,
+    /// Per seed: (seed, seconds, iterations, rollouts, converged).
+    pub plans: Vec<(u64, f64, u32, u32, bool)>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => v[n / 2],
+        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Runs the subcommand.
+pub fn run(task_path: &Path, json: bool) -> Result<(), CliError> {
+    let lt = taskfile::load(task_path)?;
+    let report = with_dims!(lt.chain.dof(), bench_n, &lt)?;
+    if json {
+        let s = serde_json::to_string(&report).map_err(|e| CliError::internal(e.to_string()))?;
+        println!("{s}");
+    } else {
+        println!("step            {:10.1} ns (median)", report.step_ns);
+        println!(
+            "rollout         {:10.1} µs (median, {} steps)",
+            report.rollout_us, report.steps_per_rollout
+        );
+        println!(
+            "plan            {:10.3} s  (median over seeds 1..10)",
+            report.plan_s_median
+        );
+        println!(
+            "plan iterations {:10.1}    (median)",
+            report.plan_iterations_median
+        );
+        println!(
+            "plan rollouts   {:10.1}    (median)",
+            report.plan_rollouts_median
+        );
+        println!("converged       {:10}    of 10", report.plan_converged);
+    }
+    Ok(())
+}
+
+fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson, CliError> {
+    let task = lt.task::<N, K>()?;
+    let mut plans = Vec::new();
+    let mut eta = None;
+    // Seed 1 twice: the first run is the warm-up and provides the η timed below.
+    for seed in std::iter::once(1).chain(1..=10) {
+        let config = lt.planner(HOST_CAPACITY, Some(seed), None)?;
+        let done = plan::<N, K>(lt, config, false)?;
+        let (p, converged) = match done.status {
+            Status::Converged(p) => (p, true),
+            Status::Exhausted(p) => (p, false),
+            Status::Running(_) => return Err(CliError::internal("planner still running")),
+        };
+        if eta.is_none() {
+            eta = Some(p.eta);
+            continue;
+        }
+        plans.push((seed, done.seconds, p.iterations, p.rollouts, converged));
+    }
+    let eta = eta.ok_or_else(|| CliError::internal("no plan"))?;
+    let steps = task.motion().steps();
+    let mut per_step = Vec::new();
+    let mut per_rollout = Vec::new();
+    for _ in 0..21 {
+        let start = Instant::now();
+        let o = task
+            .rollout(&eta, &mut ())
+            .map_err(|e| CliError::failed(e.to_string()))?;
+        per_rollout.push(start.elapsed().as_secs_f64() * 1e6);
+        std::hint::black_box(o);
+        let mut r = Rollout::new(&task, &eta).map_err(|e| CliError::failed(e.to_string()))?;
+        loop {
+            let t = Instant::now();
+            let p = r
+                .advance(&task, 100, &mut ())
+                .map_err(|e| CliError::failed(e.to_string()))?;
+            let dt = t.elapsed().as_secs_f64();
+            match p {
+                Progress::Running { .. } => per_step.push(dt * 1e9 / 100.0),
+                Progress::Done(_) => break,
+            }
+        }
+    }
+    Ok(BenchJson {
+        n: N,
+        steps_per_rollout: steps,
+        step_ns: median(per_step),
+        rollout_us: median(per_rollout),
+        plan_s_median: median(plans.iter().map(|p| p.1).collect()),
+        plan_iterations_median: median(plans.iter().map(|p| f64::from(p.2)).collect()),
+        plan_rollouts_median: median(plans.iter().map(|p| f64::from(p.3)).collect()),
+        plan_converged: plans.iter().filter(|p| p.4).count() as u32,
+        plans,
+    })
+}

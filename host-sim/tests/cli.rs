@@ -306,3 +306,171 @@ fn a_foreign_output_directory_is_never_replaced() {
         "keep me"
     );
 }
+
+// --- plan and bench (REQ: issue 3, host-sim) ------------------------------------------
+
+fn read_json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn plan_converges_writes_everything_and_refines() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plan");
+    let o = host_sim()
+        .arg("plan")
+        .arg(paper())
+        .args(["--seed", "2", "--refine-tolerance", "1e-6", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    // Not a terminal: no progress bar, just the one-line report.
+    assert!(!err.contains('\r') && !err.contains('\u{1b}'), "{err:?}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    let p = read_json(&out.join("plan.json"));
+    assert_eq!(p["status"], "converged");
+    assert_eq!(p["seed"], 2);
+    for key in [
+        "eta",
+        "f",
+        "phi",
+        "position_error_m",
+        "orientation_error_deg",
+        "iterations",
+        "rollouts",
+        "stagnation_events",
+        "seed",
+        "best_f_history",
+    ] {
+        assert!(p.get(key).is_some(), "plan.json lacks {key}");
+    }
+    assert_eq!(p["eta"].as_array().unwrap().len(), 8);
+    assert!(p["f"].as_f64().unwrap() <= 1e-6);
+    assert_eq!(p["phi"].as_f64().unwrap(), 0.0);
+    assert!(p["swarm_f"].as_f64().unwrap() <= 0.05);
+    assert_eq!(p["refine"]["stop"], "reached");
+    let history = p["best_f_history"].as_array().unwrap();
+    // One entry per completed generation (0..iterations), then the successful f.
+    assert_eq!(history.len() as u64, p["iterations"].as_u64().unwrap() + 1);
+    assert_eq!(history.last().unwrap(), &p["swarm_f"]);
+    // The trajectory and summary are the plan's.
+    let s = read_json(&out.join("summary.json"));
+    assert_eq!(s["eta"], p["eta"]);
+    assert_eq!(s["f"], p["f"]);
+    assert!(s["base_disturbance_deg"].as_f64().unwrap() < 0.01);
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3002);
+}
+
+#[test]
+fn plan_that_does_not_converge_exits_1_and_still_reports() {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = task_with(tmp.path(), |s| {
+        s.replace("max_iterations = 200", "max_iterations = 1")
+            .replace("tolerance = 0.05", "tolerance = 1e-9")
+    });
+    let out = tmp.path().join("out");
+    let o = host_sim()
+        .arg("plan")
+        .arg(&task)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not converged"));
+    let p = read_json(&out.join("plan.json"));
+    assert_eq!(p["status"], "not_converged");
+    assert_eq!(p["iterations"], 1);
+    assert_eq!(p["rollouts"], 80);
+}
+
+fn plan_rejects(edit: impl Fn(String) -> String, want: &[&str]) {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = task_with(tmp.path(), edit);
+    let out = tmp.path().join("out");
+    let o = host_sim()
+        .arg("plan")
+        .arg(&task)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for w in want {
+        assert!(err.contains(w), "{err:?} lacks {w:?}");
+    }
+    assert!(!out.exists());
+}
+
+#[test]
+fn bad_planner_settings_are_named() {
+    plan_rejects(
+        |s| s.replace("particles = 40", "particles = 0"),
+        &["[planner] particles = 0", "> 0"],
+    );
+    plan_rejects(
+        |s| s.replace("particles = 40", "particles = 1000"),
+        &["particles = 1000", "capacity of 256"],
+    );
+    plan_rejects(
+        |s| s.replace("max_iterations = 200", "max_iterations = 0"),
+        &["max_iterations = 0"],
+    );
+    plan_rejects(
+        |s| s.replace("c1 = 1.49618", "c1 = -1.0"),
+        &["[planner] c1 = -1", "negative"],
+    );
+    plan_rejects(
+        |s| s.replace("w_min = 0.4", "w_min = 0.95"),
+        &["w_min = 0.95", "w_max"],
+    );
+    plan_rejects(
+        |s| s.replace("tolerance = 0.05", "tolerance = 0.0"),
+        &["tolerance = 0"],
+    );
+    plan_rejects(
+        |s| s.replace("eta_bound = 5.0", "eta_bound = -5.0"),
+        &["eta_bound = -5"],
+    );
+    plan_rejects(
+        |s| s.replace("window = 10", "window = 100"),
+        &["stagnation.window = 100"],
+    );
+    plan_rejects(|s| s.replace("seed = 1", "seed = -1"), &["seed"]);
+    plan_rejects(
+        |s| s.replace("seed = 1", "seed = 1\nrefine_tolerance = 0.0"),
+        &["refine_tolerance = 0"],
+    );
+}
+
+#[test]
+fn bench_prints_one_json_object() {
+    let o = host_sim()
+        .arg("bench")
+        .arg(paper())
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(text.trim().lines().count(), 1);
+    let v: Value = serde_json::from_str(text.trim()).unwrap();
+    for key in [
+        "step_ns",
+        "rollout_us",
+        "plan_s_median",
+        "plan_iterations_median",
+    ] {
+        assert!(v[key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    assert_eq!(v["plan_converged"], 10);
+}

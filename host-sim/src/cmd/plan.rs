@@ -49,7 +49,7 @@ pub struct PlanJson {
     pub stagnation_events: u32,
     /// Seed used.
     pub seed: u64,
-    /// gbest's f after each generation (0 = initial); the successful f last.
+    /// gbest's f after each completed generation (0 = initial), then the successful f.
     pub best_f_history: Vec<f64>,
     /// f when C-PSO stopped.
     pub swarm_f: f64,

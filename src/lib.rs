@@ -47,6 +47,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod digest;
 pub mod error;
 pub mod execute;
 pub mod geometry;
@@ -64,6 +65,7 @@ pub mod task;
 pub mod trajectory;
 pub mod truth;
 
+pub use digest::TrajectoryDigest;
 pub use error::{Body, Error, Param, RankLoss};
 pub use execute::Setpoints;
 pub use geometry::{Pose, PoseError, Sym3};

@@ -215,6 +215,8 @@ pub struct Planner<const N: usize, const K: usize, const P: usize> {
     iterations: u32,
     swarm_f: f64,
     last_error: Option<Error>,
+    /// Budget consumed so far (integration steps, plus one per rejected candidate).
+    spent: u64,
 }
 
 fn cost_of<const N: usize>(o: &Outcome<N>) -> Cost {
@@ -276,6 +278,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
             iterations: 0,
             swarm_f: f64::INFINITY,
             last_error: None,
+            spent: 0,
         })
     }
 
@@ -297,6 +300,13 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         &self.swarm
     }
 
+    /// Budget consumed so far: integration steps, plus one per candidate rejected before
+    /// integration. Each [`Planner::step`] call adds at most its `budget`.
+    #[must_use]
+    pub fn spent(&self) -> u64 {
+        self.spent
+    }
+
     /// Advances by at most `budget` integration steps; reports events to `observer`.
     ///
     /// # Errors
@@ -308,7 +318,17 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         observer: &mut O,
     ) -> Result<Status<N, K>, Error> {
         let mut left = budget;
-        while left > 0 {
+        let result = self.run(&mut left, observer);
+        self.spent += u64::from(budget - left);
+        result
+    }
+
+    fn run<O: Observer>(
+        &mut self,
+        left: &mut u32,
+        observer: &mut O,
+    ) -> Result<Status<N, K>, Error> {
+        while *left > 0 {
             match self.phase {
                 Phase::Done(s) => return Ok(s),
                 Phase::Failed(e) => return Err(e),
@@ -321,7 +341,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                     match Rollout::new(&self.task, &self.eta) {
                         Ok(r) => r,
                         Err(e) => {
-                            left -= 1;
+                            *left -= 1;
                             self.absorb(Err(e), observer);
                             continue;
                         }
@@ -329,8 +349,8 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 }
             };
             let before = rollout.step();
-            let result = rollout.advance(&self.task, left, &mut ());
-            left = left.saturating_sub(rollout.step().saturating_sub(before));
+            let result = rollout.advance(&self.task, *left, &mut ());
+            *left = left.saturating_sub(rollout.step().saturating_sub(before));
             match result {
                 Ok(Progress::Running { .. }) => self.rollout = Some(rollout),
                 Ok(Progress::Done(o)) => self.absorb(Ok(o), observer),

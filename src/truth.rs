@@ -89,6 +89,12 @@ impl<'t, const N: usize, const K: usize> TruthModel<'t, N, K> {
         self.attitude
     }
 
+    /// Base rotation angle at the last sample (rad).
+    #[must_use]
+    pub fn angle(&self) -> f64 {
+        quat_angle(self.attitude)
+    }
+
     /// Largest base rotation angle so far (rad).
     #[must_use]
     pub fn max_angle(&self) -> f64 {

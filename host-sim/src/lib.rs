@@ -10,5 +10,6 @@ pub mod cmd;
 pub mod dispatch;
 pub mod error;
 pub mod output;
+pub mod plots;
 pub mod taskfile;
 pub mod urdf;

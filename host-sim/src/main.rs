@@ -18,6 +18,9 @@ struct Cli {
 #[derive(Debug, Clone)]
 struct List(Vec<f64>);
 
+/// Seeds of a campaign.
+type Seeds = Vec<u64>;
+
 fn parse_list(s: &str) -> Result<List, String> {
     s.split(',')
         .map(|t| {
@@ -54,6 +57,9 @@ enum Command {
         /// Output directory (replaced atomically).
         #[arg(long)]
         out: PathBuf,
+        /// Also write figures (PNG and SVG).
+        #[arg(long)]
+        plots: bool,
     },
     /// Plan a task with C-PSO (and refinement): writes DIR/plan.json, DIR/trajectory.csv,
     /// DIR/summary.json. Exit code 0 converged, 1 not converged, 2 bad input.
@@ -69,6 +75,98 @@ enum Command {
         /// Refine after C-PSO until f ≤ this (overrides the task's refine_tolerance).
         #[arg(long)]
         refine_tolerance: Option<f64>,
+        /// Also write figures (PNG and SVG), convergence included.
+        #[arg(long)]
+        plots: bool,
+    },
+    /// Verify an output directory of `plan` or `rollout` independently: the trajectory as
+    /// written against a fresh rollout, the integrator, every limit, the pose error and the
+    /// base disturbance. Exit code 0 all pass, 1 a check failed, 2 unreadable.
+    Check {
+        /// Output directory of `plan` or `rollout`.
+        dir: PathBuf,
+    },
+    /// Plan a task and write a certification record (task, URDF hash, build, outputs as bit
+    /// patterns, trajectory digest) to REC.json.
+    Record {
+        /// Task file (TOML).
+        task: PathBuf,
+        /// Record file to write (replaced atomically).
+        #[arg(long)]
+        out: PathBuf,
+        /// Seed (overrides the task's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Refinement tolerance (overrides the task's).
+        #[arg(long)]
+        refine_tolerance: Option<f64>,
+    },
+    /// Re-run a record and compare bit for bit; exit 1 naming the first difference.
+    Replay {
+        /// Record files.
+        #[arg(required = true)]
+        records: Vec<PathBuf>,
+    },
+    /// Write COUNT task files with reachable targets for a robot (random feasible η rolled
+    /// out from the start, truth-model end pose as target).
+    Generate {
+        /// Robot description (URDF).
+        #[arg(long)]
+        urdf: PathBuf,
+        /// End-effector link (default: the only leaf link).
+        #[arg(long)]
+        ee: Option<String>,
+        /// Start configuration (deg), comma-separated.
+        #[arg(long, allow_hyphen_values = true, value_parser = parse_list)]
+        start_deg: List,
+        /// Number of tasks.
+        #[arg(long)]
+        count: u32,
+        /// Seed of the stream that draws η.
+        #[arg(long)]
+        seed: u64,
+        /// Output directory (replaced atomically).
+        #[arg(long)]
+        out: PathBuf,
+        /// Motion duration (s).
+        #[arg(long, default_value_t = 30.0)]
+        tf_s: f64,
+        /// Integration step (s).
+        #[arg(long, default_value_t = 0.01)]
+        dt_s: f64,
+        /// Smallest end-effector displacement of a target from the start (m).
+        #[arg(long, default_value_t = 0.2)]
+        min_motion_m: f64,
+        /// Half-width of the box η is drawn from.
+        #[arg(long, default_value_t = 5.0)]
+        eta_bound: f64,
+    },
+    /// Plan under a cyclic executive: at most FRAME_BUDGET integration steps per frame;
+    /// report frames, steps per frame and wall time per frame.
+    Frames {
+        /// Task file (TOML).
+        task: PathBuf,
+        /// Integration steps per frame.
+        #[arg(long)]
+        frame_budget: u32,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Monte Carlo over tasks and seeds in parallel: DIR/runs.csv and DIR/summary.md.
+    Campaign {
+        /// Task files (TOML).
+        #[arg(required = true)]
+        tasks: Vec<PathBuf>,
+        /// Seeds, inclusive range A..B.
+        #[arg(long, value_parser = cmd::campaign::parse_seeds)]
+        seeds: Seeds,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Output directory (replaced atomically).
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Time the core on a task: one step, one rollout, and planning over seeds 1..10.
     Bench {
@@ -83,14 +181,90 @@ enum Command {
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Model { urdf, ee, q_deg } => cmd::model::run(&urdf, ee.as_deref(), &q_deg.0),
-        Command::Rollout { task, eta, out } => cmd::rollout::run(&task, &eta.0, &out),
+        Command::Rollout {
+            task,
+            eta,
+            out,
+            plots,
+        } => cmd::rollout::run(&task, &eta.0, &out, plots),
         Command::Plan {
             task,
             out,
             seed,
             refine_tolerance,
-        } => cmd::plan::run(&task, &out, seed, refine_tolerance),
+            plots,
+        } => cmd::plan::run(
+            &task,
+            &out,
+            cmd::plan::PlanOptions {
+                seed,
+                refine: refine_tolerance,
+                plots,
+            },
+        ),
         Command::Bench { task, json } => cmd::bench::run(&task, json),
+        Command::Check { dir } => cmd::check::run(&dir),
+        Command::Record {
+            task,
+            out,
+            seed,
+            refine_tolerance,
+        } => cmd::record::record(&task, &out, seed, refine_tolerance),
+        Command::Replay { records } => {
+            // Every record is replayed; the first failure decides the exit code.
+            let mut failed: Vec<CliError> = Vec::new();
+            for r in &records {
+                if let Err(e) = cmd::record::replay(r) {
+                    eprintln!("error: {e}");
+                    failed.push(e);
+                }
+            }
+            match failed.first() {
+                None => Ok(()),
+                Some(e) => Err(CliError {
+                    code: e.code,
+                    message: format!(
+                        "{} of {} records did not replay identically",
+                        failed.len(),
+                        records.len()
+                    ),
+                }),
+            }
+        }
+        Command::Generate {
+            urdf,
+            ee,
+            start_deg,
+            count,
+            seed,
+            out,
+            tf_s,
+            dt_s,
+            min_motion_m,
+            eta_bound,
+        } => cmd::generate::run(&cmd::generate::GenerateOptions {
+            urdf,
+            ee,
+            start_deg: start_deg.0,
+            count,
+            seed,
+            out,
+            tf_s,
+            dt_s,
+            min_motion_m,
+            eta_bound,
+        }),
+        Command::Frames {
+            task,
+            frame_budget,
+            json,
+        } => cmd::frames::run(&task, frame_budget, json),
+        Command::Campaign {
+            tasks,
+            seeds,
+            jobs,
+            out,
+        } => cmd::campaign::run(&tasks, &seeds, jobs, &out),
     }
 }
 

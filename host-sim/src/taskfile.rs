@@ -28,6 +28,25 @@ pub struct TaskFile {
     /// `[planner]` (defaults: spec §7).
     #[serde(default)]
     pub planner: PlannerSection,
+    /// `[check]`: thresholds of `host-sim check`.
+    #[serde(default)]
+    pub check: CheckSection,
+}
+
+/// `[check]`: what `host-sim check` accepts.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CheckSection {
+    /// Largest acceptable base rotation over the motion, truth model (deg), > 0.
+    pub max_base_disturbance_deg: f64,
+}
+
+impl Default for CheckSection {
+    fn default() -> Self {
+        Self {
+            max_base_disturbance_deg: 0.01,
+        }
+    }
 }
 
 /// `[robot]`: which robot and which link is the end effector.
@@ -154,6 +173,10 @@ impl Default for StagnationSection {
 pub struct LoadedTask {
     /// The task file path as given.
     pub path: PathBuf,
+    /// The task file's text as read.
+    pub text: String,
+    /// The URDF's text as read.
+    pub urdf_text: String,
     /// Parsed contents.
     pub file: TaskFile,
     /// The robot chain.
@@ -173,20 +196,53 @@ pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
         .parent()
         .unwrap_or_else(|| Path::new("."))
         .join(&file.robot.urdf);
-    let chain = urdf::load(&urdf_path, file.robot.ee_link.as_deref()).map_err(|e| {
+    let urdf_err = |m: String| {
         CliError::input(format!(
-            "{shown}: [robot] urdf = {:?}: {}",
-            file.robot.urdf.display().to_string(),
-            e.message
+            "{shown}: [robot] urdf = {:?}: {m}",
+            file.robot.urdf.display().to_string()
         ))
-    })?;
+    };
+    let urdf_text = std::fs::read_to_string(&urdf_path)
+        .map_err(|e| urdf_err(format!("cannot read URDF: {e}")))?;
+    let chain = urdf::parse(&urdf_text, file.robot.ee_link.as_deref()).map_err(urdf_err)?;
+    let d = file.check.max_base_disturbance_deg;
+    if !(d.is_finite() && d > 0.0) {
+        return Err(CliError::input(format!(
+            "{shown}: [check] max_base_disturbance_deg = {d} must be a finite number > 0"
+        )));
+    }
     Ok(LoadedTask {
         path: path.to_path_buf(),
+        text,
+        urdf_text,
         file,
         chain,
         urdf_path,
     })
 }
+
+/// Parses a task from its text, with the URDF given as text (for replays and checks of
+/// self-contained bundles). `origin` names the source in messages.
+pub fn from_texts(origin: &Path, text: &str, urdf_text: &str) -> Result<LoadedTask, CliError> {
+    let shown = origin.display();
+    let file: TaskFile = toml::from_str(text)
+        .map_err(|e| CliError::input(format!("{shown}: {}", one_line(&e.to_string()))))?;
+    let chain = urdf::parse(urdf_text, file.robot.ee_link.as_deref())
+        .map_err(|m| CliError::input(format!("{shown}: robot: {m}")))?;
+    Ok(LoadedTask {
+        path: origin.to_path_buf(),
+        text: text.to_string(),
+        urdf_text: urdf_text.to_string(),
+        urdf_path: origin.with_file_name(&file.robot.urdf),
+        file,
+        chain,
+    })
+}
+
+/// File names of a self-contained task bundle in an output directory.
+pub const BUNDLE_TASK: &str = "task.toml";
+/// The URDF copy of a bundle.
+pub const BUNDLE_URDF: &str = "robot.urdf";
 
 /// Collapses toml's multi-line error report into one line.
 fn one_line(s: &str) -> String {
@@ -198,6 +254,42 @@ fn one_line(s: &str) -> String {
 }
 
 impl LoadedTask {
+    /// The task as a self-contained bundle: the task file re-written with `[robot] urdf =
+    /// "robot.urdf"` and the effective seed and refinement tolerance, and the URDF's text.
+    pub fn bundle(
+        &self,
+        seed: Option<u64>,
+        refine: Option<f64>,
+    ) -> Result<(String, String), CliError> {
+        let mut table: toml::Table = toml::from_str(&self.text)
+            .map_err(|e| CliError::internal(format!("re-reading the task: {e}")))?;
+        if let Some(toml::Value::Table(robot)) = table.get_mut("robot") {
+            robot.insert("urdf".into(), toml::Value::String(BUNDLE_URDF.into()));
+        }
+        let planner = table
+            .entry("planner")
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        if let toml::Value::Table(p) = planner {
+            if let Some(s) = seed {
+                let s = i64::try_from(s).map_err(|_| {
+                    CliError::input(format!("--seed {s} does not fit a TOML integer"))
+                })?;
+                p.insert("seed".into(), toml::Value::Integer(s));
+            }
+            if let Some(r) = refine {
+                p.insert("refine_tolerance".into(), toml::Value::Float(r));
+            }
+        }
+        let text = toml::to_string(&table)
+            .map_err(|e| CliError::internal(format!("writing the task: {e}")))?;
+        Ok((text, self.urdf_text.clone()))
+    }
+
+    /// `[check] max_base_disturbance_deg`.
+    pub fn max_base_disturbance_deg(&self) -> f64 {
+        self.file.check.max_base_disturbance_deg
+    }
+
     fn err(&self, msg: impl std::fmt::Display) -> CliError {
         CliError::input(format!("{}: {msg}", self.path.display()))
     }

@@ -78,15 +78,21 @@ pub struct RefineJson {
     pub f_history: Vec<f64>,
 }
 
-/// Runs the subcommand; returns whether the plan converged.
-pub fn run(
-    task_path: &Path,
-    out: &Path,
-    seed: Option<u64>,
-    refine: Option<f64>,
-) -> Result<(), CliError> {
+/// What `plan` was asked to do.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PlanOptions {
+    /// Seed override.
+    pub seed: Option<u64>,
+    /// Refinement tolerance override.
+    pub refine: Option<f64>,
+    /// Write figures.
+    pub plots: bool,
+}
+
+/// Runs the subcommand.
+pub fn run(task_path: &Path, out: &Path, options: PlanOptions) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
-    with_dims!(lt.chain.dof(), run_n, &lt, out, seed, refine)
+    with_dims!(lt.chain.dof(), run_n, &lt, out, options)
 }
 
 /// A finished planning run.
@@ -167,9 +173,13 @@ fn stop_name(s: RefineStop) -> &'static str {
 fn run_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     out: &Path,
-    seed: Option<u64>,
-    refine: Option<f64>,
+    options: PlanOptions,
 ) -> Result<(), CliError> {
+    let PlanOptions {
+        seed,
+        refine,
+        plots,
+    } = options;
     let config = lt.planner(HOST_CAPACITY, seed, refine)?;
     let task = lt.task::<N, K>()?;
     let done = plan::<N, K>(lt, config, true)?;
@@ -179,16 +189,26 @@ fn run_n<const N: usize, const K: usize>(
         Status::Running(_) => return Err(CliError::internal("planner still running")),
     };
     let dir = OutDir::create(out)?;
-    let (outcome, truth) = rollout::write_rollout(&task, &p.eta, &dir)?;
-    if outcome != p.outcome {
+    let run = rollout::write_rollout(&task, &p.eta, Some(&dir), plots)?;
+    if run.outcome != p.outcome {
         return Err(CliError::internal(
             "the re-run rollout differs from the one the planner evaluated",
         ));
     }
+    let truth = &run.truth;
     dir.write_json(
         "summary.json",
-        &rollout::summary(&task, &p.eta, &outcome, &truth),
+        &rollout::summary(&task, &p.eta, &run.outcome, truth),
     )?;
+    rollout::write_bundle(
+        lt,
+        &dir,
+        Some(config.seed),
+        config.refine.map(|r| r.tolerance),
+    )?;
+    if let Some(trace) = run.trace {
+        rollout::write_figures(lt, &task, trace, Some(done.history.clone()), &dir)?;
+    }
     let json = PlanJson {
         status: if converged {
             "converged"

@@ -5,11 +5,12 @@
 
 use crate::error::CliError;
 use crate::output::{CsvSink, OutDir};
+use crate::plots::{self, PlotData};
 use crate::taskfile::{self, LoadedTask};
 use crate::with_dims;
 use reactionless::{
-    Error as CoreError, Outcome, Param, Pose, Progress, Rollout, Sample, Sink, Task, TruthModel,
-    eta_pairs,
+    Error as CoreError, Outcome, Param, Pose, Progress, Rollout, Sample, Sink, Task,
+    TrajectoryDigest, TruthModel, eta_pairs,
 };
 use serde::Serialize;
 use std::path::Path;
@@ -77,9 +78,9 @@ impl From<&Pose> for PoseJson {
 }
 
 /// Runs the subcommand.
-pub fn run(task_path: &Path, eta: &[f64], out: &Path) -> Result<(), CliError> {
+pub fn run(task_path: &Path, eta: &[f64], out: &Path, plots: bool) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
-    with_dims!(lt.chain.dof(), run_n, &lt, eta, out)
+    with_dims!(lt.chain.dof(), run_n, &lt, eta, out, plots)
 }
 
 /// η from the command line as pairs, every problem named.
@@ -104,37 +105,88 @@ pub fn eta_error(e: CoreError) -> CliError {
     }
 }
 
-/// Writes `trajectory.csv` and returns the rollout outcome and the truth model's report.
+/// What one written rollout produced.
+pub struct RolloutRun<const N: usize> {
+    /// The core's outcome.
+    pub outcome: Outcome<N>,
+    /// The truth model's findings.
+    pub truth: TruthReport,
+    /// FNV-1a-64 digest of every sample's bits (see `reactionless::digest`).
+    pub digest: u64,
+    /// Samples (for plots), when asked for.
+    pub trace: Option<Trace>,
+}
+
+/// The samples of a rollout, kept for plots.
+#[derive(Default)]
+pub struct Trace {
+    /// Times (s).
+    pub t: Vec<f64>,
+    /// Joint positions (rad).
+    pub q: Vec<Vec<f64>>,
+    /// Joint rates (rad/s).
+    pub qd: Vec<Vec<f64>>,
+    /// Planner-model end-effector positions (m).
+    pub ee: Vec<[f64; 3]>,
+    /// Truth-model base rotation angle (deg).
+    pub base_angle_deg: Vec<f64>,
+}
+
+/// Rolls `eta` out with the truth model and the digest; writes `trajectory.csv` into `dir`
+/// if given, and keeps the samples if `keep` is set.
 pub fn write_rollout<const N: usize, const K: usize>(
     task: &Task<N, K>,
     eta: &[[f64; 2]; K],
-    dir: &OutDir,
-) -> Result<(Outcome<N>, TruthReport), CliError> {
+    dir: Option<&OutDir>,
+    keep: bool,
+) -> Result<RolloutRun<N>, CliError> {
     let mut rollout = Rollout::new(task, eta).map_err(eta_error)?;
-    let mut csv = CsvSink::create(&dir.path("trajectory.csv"), N)?;
+    let mut csv = match dir {
+        Some(d) => Some(CsvSink::create(&d.path("trajectory.csv"), N)?),
+        None => None,
+    };
     let mut truth = TruthModel::new(task, TRUTH_SUBSTEPS);
+    let mut digest = TrajectoryDigest::new();
+    let mut trace = keep.then(Trace::default);
     let mut sink = |s: &Sample<N>| {
-        csv.push(s);
+        if let Some(c) = csv.as_mut() {
+            c.push(s);
+        }
         truth.sample(s);
+        digest.sample(s);
+        if let Some(tr) = trace.as_mut() {
+            tr.t.push(s.t);
+            tr.q.push(s.q.to_vec());
+            tr.qd.push(s.qd.to_vec());
+            tr.ee
+                .push(task.end_pose(&s.q, [1.0, 0.0, 0.0, 0.0]).position);
+            tr.base_angle_deg.push(truth.angle().to_degrees());
+        }
     };
     let outcome = match rollout.advance(task, u32::MAX, &mut sink) {
         Ok(Progress::Done(o)) => o,
         Ok(Progress::Running { .. }) => return Err(CliError::internal("rollout did not finish")),
         Err(e) => return Err(CliError::failed(format!("rollout failed: {e}"))),
     };
-    csv.finish()?;
+    if let Some(c) = csv {
+        c.finish()?;
+    }
     if let Some(e) = truth.error() {
         return Err(CliError::failed(format!("truth model failed: {e}")));
     }
     let end = truth
         .end_pose()
         .ok_or_else(|| CliError::internal("truth model saw no samples"))?;
-    let report = TruthReport {
-        base_disturbance_deg: truth.max_angle().to_degrees(),
-        f: end.error_to(task.target()).norm(),
-        end_pose: end,
-    };
-    Ok((outcome, report))
+    Ok(RolloutRun {
+        outcome,
+        truth: TruthReport {
+            base_disturbance_deg: truth.max_angle().to_degrees(),
+            f: end.error_to(task.target()).norm(),
+            end_pose: end,
+        },
+        digest: digest.value(),
+        trace,
+    })
 }
 
 /// What the truth model found.
@@ -145,6 +197,43 @@ pub struct TruthReport {
     pub end_pose: Pose,
     /// f of that pose against the target.
     pub f: f64,
+}
+
+/// Writes the self-contained task bundle (`task.toml`, `robot.urdf`) into `dir`.
+pub fn write_bundle(
+    lt: &LoadedTask,
+    dir: &OutDir,
+    seed: Option<u64>,
+    refine: Option<f64>,
+) -> Result<(), CliError> {
+    let (task, urdf) = lt.bundle(seed, refine)?;
+    dir.write(taskfile::BUNDLE_TASK, task.as_bytes())?;
+    dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
+}
+
+/// Writes the figures of a rollout (and a plan's convergence) into `dir`.
+pub fn write_figures<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    trace: Trace,
+    history: Option<Vec<f64>>,
+    dir: &OutDir,
+) -> Result<Vec<String>, CliError> {
+    let robot = task.robot();
+    let data = PlotData {
+        joint_names: lt.chain.joint_names.clone(),
+        t: trace.t,
+        q: trace.q,
+        qd: trace.qd,
+        lower: robot.lower().to_vec(),
+        upper: robot.upper().to_vec(),
+        qd_limit: lt.chain.joints.iter().map(|j| j.velocity).collect(),
+        ee: trace.ee,
+        target: task.target().position,
+        base_angle_deg: trace.base_angle_deg,
+        best_f_history: history,
+    };
+    plots::write_plots(&dir.path(""), &data)
 }
 
 /// `summary.json` of a finished rollout.
@@ -181,20 +270,28 @@ fn run_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     eta: &[f64],
     out: &Path,
+    plots: bool,
 ) -> Result<(), CliError> {
     let task = lt.task::<N, K>()?;
     let eta = parse_eta::<K>(eta)?;
     // Validate η before anything is created on disk.
     Rollout::new(&task, &eta).map_err(eta_error)?;
     let dir = OutDir::create(out)?;
-    let (outcome, truth) = write_rollout(&task, &eta, &dir)?;
-    dir.write_json("summary.json", &summary(&task, &eta, &outcome, &truth))?;
+    let run = write_rollout(&task, &eta, Some(&dir), plots)?;
+    dir.write_json(
+        "summary.json",
+        &summary(&task, &eta, &run.outcome, &run.truth),
+    )?;
+    write_bundle(lt, &dir, None, None)?;
+    if let Some(trace) = run.trace {
+        write_figures(lt, &task, trace, None, &dir)?;
+    }
     let path = dir.commit()?;
     eprintln!(
         "rollout: f = {:.3e}, phi = {}, base disturbance = {:.3e} deg -> {}",
-        outcome.f,
-        outcome.phi,
-        truth.base_disturbance_deg,
+        run.outcome.f,
+        run.outcome.phi,
+        run.truth.base_disturbance_deg,
         path.display()
     );
     Ok(())

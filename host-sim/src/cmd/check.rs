@@ -1,0 +1,372 @@
+//! `host-sim check DIR`: independent verification of what `plan` or `rollout` wrote.
+//!
+//! Reads the trajectory **as written** (`trajectory.csv`, the artifact that would be flown)
+//! with the task bundle beside it (`task.toml`, `robot.urdf`) and the η of `summary.json`,
+//! then verifies:
+//! - the file's shape and time grid (`t_s = s·dt`, last = `t_f`, to the bit);
+//! - every value equals a fresh rollout of the recorded η, bit for bit;
+//! - each row follows from the previous one by the integrator (`q_{s+1} = q_s + dt·q̇_s`);
+//! - joint limits; `|q̇| ≤` each joint's velocity limit; `q̇ = 0` at both ends;
+//! - the end pose (planner model, from the written `q_S`) within the task's tolerance;
+//! - the base disturbance of the written path (truth model, 10 midpoint sub-steps) below
+//!   `[check] max_base_disturbance_deg`.
+//!
+//! Prints a table. Exit 0 if everything passes, 1 if anything fails, 2 if the directory
+//! cannot be read as a host-sim output.
+
+use crate::cmd::rollout::{TRUTH_SUBSTEPS, parse_eta};
+use crate::error::CliError;
+use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
+use crate::with_dims;
+use reactionless::{Frames, Sample, Sink, TruthModel};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One line of the report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Line {
+    /// What was checked.
+    pub check: String,
+    /// What was found.
+    pub value: String,
+    /// What is allowed.
+    pub limit: String,
+    /// Whether it passed.
+    pub pass: bool,
+}
+
+fn line(check: &str, value: String, limit: String, pass: bool) -> Line {
+    Line {
+        check: check.to_string(),
+        value,
+        limit,
+        pass,
+    }
+}
+
+fn read(dir: &Path, name: &str) -> Result<String, CliError> {
+    std::fs::read_to_string(dir.join(name)).map_err(|e| {
+        CliError::input(format!(
+            "{}: cannot read {name}: {e} (is this a host-sim output directory?)",
+            dir.display()
+        ))
+    })
+}
+
+/// Runs the subcommand: prints the table, fails with exit code 1 if a check fails.
+pub fn run(dir: &Path) -> Result<(), CliError> {
+    let lines = verify(dir)?;
+    println!("{}", table(&lines));
+    let failed: Vec<&str> = lines
+        .iter()
+        .filter(|l| !l.pass)
+        .map(|l| l.check.as_str())
+        .collect();
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(CliError::failed(format!(
+            "{}: verification failed: {}",
+            dir.display(),
+            failed.join(", ")
+        )))
+    }
+}
+
+/// All checks of `dir`.
+pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
+    let task_text = read(dir, BUNDLE_TASK)?;
+    let urdf_text = read(dir, BUNDLE_URDF)?;
+    let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
+    let summary: serde_json::Value = serde_json::from_str(&read(dir, "summary.json")?)
+        .map_err(|e| CliError::input(format!("{}: summary.json: {e}", dir.display())))?;
+    let eta: Vec<f64> = summary["eta"]
+        .as_array()
+        .and_then(|a| a.iter().map(serde_json::Value::as_f64).collect())
+        .ok_or_else(|| {
+            CliError::input(format!(
+                "{}: summary.json has no numeric eta",
+                dir.display()
+            ))
+        })?;
+    let csv = read(dir, "trajectory.csv")?;
+    with_dims!(lt.chain.dof(), verify_n, &lt, dir, &eta, &csv)
+}
+
+/// Parses the CSV as written: header, then rows of `1 + 2N` numbers.
+fn parse_csv<const N: usize>(dir: &Path, csv: &str) -> Result<Vec<Sample<N>>, CliError> {
+    let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
+    let mut lines = csv.lines();
+    let header = lines.next().ok_or_else(|| err("empty file".into()))?;
+    let mut want = String::from("t");
+    for i in 1..=N {
+        let _ = write!(want, ",q{i}");
+    }
+    for i in 1..=N {
+        let _ = write!(want, ",qd{i}");
+    }
+    if header != want {
+        return Err(err(format!("header {header:?}, expected {want:?}")));
+    }
+    let mut out = Vec::new();
+    for (row, text) in lines.enumerate() {
+        let values: Vec<f64> = text
+            .split(',')
+            .map(|v| v.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
+        if values.len() != 1 + 2 * N {
+            return Err(err(format!(
+                "row {}: {} values, expected {}",
+                row + 1,
+                values.len(),
+                1 + 2 * N
+            )));
+        }
+        let mut s = Sample {
+            step: row as u32,
+            t: values[0],
+            q: [0.0; N],
+            qd: [0.0; N],
+        };
+        s.q.copy_from_slice(&values[1..=N]);
+        s.qd.copy_from_slice(&values[N + 1..]);
+        out.push(s);
+    }
+    Ok(out)
+}
+
+fn column_name<const N: usize>(c: usize) -> String {
+    match c {
+        0 => "t".into(),
+        c if c <= N => format!("q{c}"),
+        c => format!("qd{}", c - N),
+    }
+}
+
+fn values<const N: usize>(s: &Sample<N>) -> Vec<f64> {
+    std::iter::once(s.t).chain(s.q).chain(s.qd).collect()
+}
+
+fn verify_n<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    dir: &Path,
+    eta: &[f64],
+    csv: &str,
+) -> Result<Vec<Line>, CliError> {
+    let task = lt.task::<N, K>()?;
+    let eta = parse_eta::<K>(eta)?;
+    let written = parse_csv::<N>(dir, csv)?;
+    let motion = *task.motion();
+    let robot = task.robot();
+    let mut lines = Vec::new();
+
+    // Shape and time grid.
+    let expected = motion.steps() as usize + 1;
+    lines.push(line(
+        "samples",
+        written.len().to_string(),
+        format!("= {expected} (t_f/dt + 1)"),
+        written.len() == expected,
+    ));
+    let bad_t = written
+        .iter()
+        .enumerate()
+        .find(|(s, x)| x.t.to_bits() != motion.time(*s as u32).to_bits());
+    lines.push(line(
+        "time grid",
+        bad_t.map_or("exact".into(), |(s, x)| format!("row {s}: t = {}", x.t)),
+        format!("t_s = s*{} s", motion.dt()),
+        bad_t.is_none(),
+    ));
+
+    // Bit-for-bit against a fresh rollout of the recorded η.
+    let mut fresh = Vec::with_capacity(expected);
+    let rerun = task.rollout(&eta, &mut |s: &Sample<N>| fresh.push(*s));
+    let mismatch = match &rerun {
+        Err(e) => Some(format!("rollout of eta failed: {e}")),
+        Ok(_) if fresh.len() != written.len() => Some(format!(
+            "{} samples written, {} computed",
+            written.len(),
+            fresh.len()
+        )),
+        Ok(_) => written
+            .iter()
+            .zip(&fresh)
+            .enumerate()
+            .find_map(|(row, (w, f))| {
+                let (a, b) = (values(w), values(f));
+                a.iter()
+                    .zip(&b)
+                    .position(|(x, y)| x.to_bits() != y.to_bits())
+                    .map(|c| {
+                        format!(
+                            "row {row}, {}: written {:e}, computed {:e}",
+                            column_name::<N>(c),
+                            a[c],
+                            b[c]
+                        )
+                    })
+            }),
+    };
+    lines.push(line(
+        "matches a fresh rollout of eta",
+        mismatch.clone().unwrap_or_else(|| "bit for bit".into()),
+        "every bit".into(),
+        mismatch.is_none(),
+    ));
+
+    // The integrator, row to row, on the written values alone.
+    let dt = motion.dt();
+    let euler = written.windows(2).enumerate().find_map(|(row, w)| {
+        let (a, b) = (&w[0], &w[1]);
+        a.q.iter()
+            .zip(&a.qd)
+            .zip(&b.q)
+            .position(|((q, v), next)| (q + dt * v).to_bits() != next.to_bits())
+            .map(|j| format!("row {} -> {}: q{}", row, row + 1, j + 1))
+    });
+    lines.push(line(
+        "rows follow q' = q + dt*qd",
+        euler.clone().unwrap_or_else(|| "every row".into()),
+        "exact".into(),
+        euler.is_none(),
+    ));
+
+    // Joint limits.
+    let mut worst = f64::INFINITY;
+    let mut worst_at = String::new();
+    for (row, s) in written.iter().enumerate() {
+        for (j, ((q, lo), hi)) in s.q.iter().zip(robot.lower()).zip(robot.upper()).enumerate() {
+            let margin = (q - lo).min(hi - q);
+            if margin < worst {
+                worst = margin;
+                worst_at = format!("q{} at row {row}", j + 1);
+            }
+        }
+    }
+    lines.push(line(
+        "joint limits",
+        format!("min margin {:.4} deg ({worst_at})", worst.to_degrees()),
+        ">= 0".into(),
+        worst >= 0.0,
+    ));
+
+    // Joint rates against each joint's own limit.
+    let mut worst_ratio = 0.0f64;
+    let mut worst_rate = String::new();
+    for (row, s) in written.iter().enumerate() {
+        for (j, (v, limit)) in
+            s.qd.iter()
+                .zip(lt.chain.joints.iter().map(|j| j.velocity))
+                .enumerate()
+        {
+            let ratio = v.abs() / limit;
+            if ratio > worst_ratio || ratio.is_nan() {
+                worst_ratio = ratio;
+                worst_rate = format!(
+                    "{:.4} deg/s (qd{} at row {row}, limit {:.4})",
+                    v.abs().to_degrees(),
+                    j + 1,
+                    limit.to_degrees()
+                );
+            }
+        }
+    }
+    lines.push(line(
+        "joint rates",
+        worst_rate,
+        "<= velocity limit".into(),
+        worst_ratio <= 1.0,
+    ));
+    let ends_zero = match (written.first(), written.last()) {
+        (Some(a), Some(b)) => a.qd.iter().chain(&b.qd).all(|v| *v == 0.0),
+        _ => false,
+    };
+    lines.push(line(
+        "qd = 0 at t = 0 and t_f",
+        if ends_zero {
+            "exactly".into()
+        } else {
+            "not zero".into()
+        },
+        "= 0".into(),
+        ends_zero,
+    ));
+
+    // End pose from the written final configuration.
+    let tolerance = lt.file.planner.tolerance;
+    match written.last() {
+        Some(last) => {
+            let pose = Frames::new(robot, &last.q).end_pose(&task.com0(), [1.0, 0.0, 0.0, 0.0]);
+            let e = pose.error_to(task.target());
+            lines.push(line(
+                "pose error f (planner model)",
+                format!(
+                    "{:.3e} ({:.3e} m, {:.3e} deg)",
+                    e.norm(),
+                    e.position_m(),
+                    e.orientation_deg()
+                ),
+                format!("<= {tolerance} ([planner] tolerance)"),
+                e.norm() <= tolerance,
+            ));
+        }
+        None => lines.push(line(
+            "pose error f (planner model)",
+            "no samples".into(),
+            String::new(),
+            false,
+        )),
+    }
+
+    // The written path through the truth model.
+    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
+    for s in &written {
+        truth.sample(s);
+    }
+    let limit = lt.max_base_disturbance_deg();
+    let deg = truth.max_angle().to_degrees();
+    let ok = truth.error().is_none() && deg <= limit;
+    lines.push(line(
+        "base disturbance (truth model)",
+        match truth.error() {
+            Some(e) => format!("failed: {e}"),
+            None => format!("{deg:.3e} deg"),
+        },
+        format!("<= {limit} deg ([check] max_base_disturbance_deg)"),
+        ok,
+    ));
+    Ok(lines)
+}
+
+/// The report as an aligned text table.
+pub fn table(lines: &[Line]) -> String {
+    let w0 = lines
+        .iter()
+        .map(|l| l.check.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
+    let w1 = lines
+        .iter()
+        .map(|l| l.value.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
+    let mut out = format!(
+        "{:<w0$}  {:<w1$}  {:<6}  limit\n",
+        "check", "value", "result"
+    );
+    for l in lines {
+        let _ = writeln!(
+            out,
+            "{:<w0$}  {:<w1$}  {:<6}  {}",
+            l.check,
+            l.value,
+            if l.pass { "pass" } else { "FAIL" },
+            l.limit
+        );
+    }
+    out.trim_end().to_string()
+}

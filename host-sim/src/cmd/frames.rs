@@ -1,0 +1,128 @@
+//! `host-sim frames`: the planner under a cyclic executive, on the host.
+//!
+//! Every frame gives the planner at most `--frame-budget` integration steps
+//! ([`reactionless::Planner::step`]); this reports how many frames planning takes, the
+//! budget actually used per frame (max and mean; never above the budget) and the wall time
+//! per frame on this machine (max and mean).
+
+use crate::cmd::plan::HOST_CAPACITY;
+use crate::error::CliError;
+use crate::taskfile::{self, LoadedTask};
+use crate::with_dims;
+use reactionless::{Planner, Status};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// The report.
+#[derive(Debug, Serialize)]
+pub struct FramesJson {
+    /// Budget per frame (integration steps).
+    pub frame_budget: u32,
+    /// Frames until the planner finished.
+    pub frames: u64,
+    /// Largest budget used in one frame.
+    pub max_steps_per_frame: u64,
+    /// Mean budget used per frame.
+    pub mean_steps_per_frame: f64,
+    /// Longest frame (ms, this machine).
+    pub max_frame_ms: f64,
+    /// Mean frame (ms, this machine).
+    pub mean_frame_ms: f64,
+    /// Whether the plan converged.
+    pub converged: bool,
+    /// C-PSO iterations.
+    pub iterations: u32,
+    /// Rollouts.
+    pub rollouts: u32,
+    /// f of the plan.
+    pub f: f64,
+}
+
+/// Runs the subcommand.
+pub fn run(task_path: &Path, frame_budget: u32, json: bool) -> Result<(), CliError> {
+    if frame_budget == 0 {
+        return Err(CliError::input(
+            "--frame-budget must be at least 1 integration step",
+        ));
+    }
+    let lt = taskfile::load(task_path)?;
+    let report = with_dims!(lt.chain.dof(), frames_n, &lt, frame_budget)?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).map_err(|e| CliError::internal(e.to_string()))?
+        );
+    } else {
+        println!("frame budget       {:>10} steps", report.frame_budget);
+        println!("frames             {:>10}", report.frames);
+        println!(
+            "steps per frame    {:>10} max, {:.1} mean",
+            report.max_steps_per_frame, report.mean_steps_per_frame
+        );
+        println!(
+            "frame wall time    {:>10.3} ms max, {:.3} ms mean",
+            report.max_frame_ms, report.mean_frame_ms
+        );
+        println!(
+            "result             {:>10} after {} iterations, {} rollouts, f = {:.3e}",
+            if report.converged {
+                "converged"
+            } else {
+                "not converged"
+            },
+            report.iterations,
+            report.rollouts,
+            report.f
+        );
+    }
+    if report.converged {
+        Ok(())
+    } else {
+        Err(CliError::failed("not converged"))
+    }
+}
+
+fn frames_n<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    budget: u32,
+) -> Result<FramesJson, CliError> {
+    let config = lt.planner(HOST_CAPACITY, None, None)?;
+    let mut planner: Box<Planner<N, K, HOST_CAPACITY>> = Box::new(
+        Planner::new(lt.task::<N, K>()?, config)
+            .map_err(|e| CliError::input(format!("planner: {e}")))?,
+    );
+    let (mut frames, mut max_steps, mut max_ms, mut total_ms) = (0u64, 0u64, 0.0f64, 0.0f64);
+    let status = loop {
+        let before = planner.spent();
+        let start = Instant::now();
+        let s = planner
+            .step(budget, &mut ())
+            .map_err(|e| CliError::failed(format!("planning failed: {e}")))?;
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        frames += 1;
+        max_steps = max_steps.max(planner.spent() - before);
+        max_ms = max_ms.max(ms);
+        total_ms += ms;
+        if !matches!(s, Status::Running(_)) {
+            break s;
+        }
+    };
+    let (converged, plan) = match status {
+        Status::Converged(p) => (true, p),
+        Status::Exhausted(p) => (false, p),
+        Status::Running(_) => return Err(CliError::internal("still running")),
+    };
+    Ok(FramesJson {
+        frame_budget: budget,
+        frames,
+        max_steps_per_frame: max_steps,
+        mean_steps_per_frame: planner.spent() as f64 / frames as f64,
+        max_frame_ms: max_ms,
+        mean_frame_ms: total_ms / frames as f64,
+        converged,
+        iterations: plan.iterations,
+        rollouts: plan.rollouts,
+        f: plan.outcome.f,
+    })
+}

@@ -1,0 +1,396 @@
+//! End-to-end tests of check, record/replay, plots, generate, frames and campaign
+//! (REQ: issue 4), failures included. Exit codes: 0 ok, 1 failed/not converged, 2 bad input.
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
+
+use assert_cmd::Command;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn host_sim() -> Command {
+    Command::cargo_bin("host-sim").unwrap()
+}
+
+/// A fast task: the 6-DOF test arm, converges in a few iterations.
+fn arm6() -> PathBuf {
+    root().join("tests/tasks/arm6/task_002.toml")
+}
+
+fn run(args: &[&str], paths: &[&Path]) -> (Option<i32>, String, String) {
+    let mut c = host_sim();
+    let mut p = paths.iter();
+    for a in args {
+        if *a == "{}" {
+            c.arg(p.next().unwrap());
+        } else {
+            c.arg(a);
+        }
+    }
+    let o = c.output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+// --- check -------------------------------------------------------------------------
+
+#[test]
+fn check_passes_a_plan_and_fails_a_hand_edited_trajectory() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plan");
+    let (code, _, err) = run(&["plan", "{}", "--out", "{}"], &[&arm6(), &out]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, table, err) = run(&["check", "{}"], &[&out]);
+    assert_eq!(code, Some(0), "{table}{err}");
+    assert!(
+        table.contains("bit for bit") && !table.contains("FAIL"),
+        "{table}"
+    );
+    for check in [
+        "joint limits",
+        "joint rates",
+        "qd = 0",
+        "pose error",
+        "base disturbance",
+    ] {
+        assert!(table.contains(check), "table lacks {check}: {table}");
+    }
+    // Edit one digit of one value in the middle of the file.
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let mut lines: Vec<String> = csv.lines().map(String::from).collect();
+    let row = &mut lines[1234];
+    let comma = row.find(',').unwrap();
+    let digit = row[comma + 1..]
+        .find(|c: char| c.is_ascii_digit() && c != '0')
+        .unwrap()
+        + comma
+        + 1;
+    let d = row.as_bytes()[digit];
+    row.replace_range(
+        digit..=digit,
+        &char::from(if d == b'9' { b'1' } else { d + 1 }).to_string(),
+    );
+    std::fs::write(out.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+    let (code, table, err) = run(&["check", "{}"], &[&out]);
+    assert_eq!(code, Some(1), "{table}{err}");
+    assert!(table.contains("row 1233, q1"), "{table}");
+    assert!(err.contains("verification failed"), "{err}");
+    // A directory that is not an output: bad input.
+    let (code, _, err) = run(&["check", "{}"], &[tmp.path()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("task.toml"), "{err}");
+}
+
+#[test]
+fn check_fails_a_trajectory_that_breaks_a_limit_or_the_disturbance_threshold() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plan");
+    assert_eq!(
+        run(&["plan", "{}", "--out", "{}"], &[&arm6(), &out]).0,
+        Some(0)
+    );
+    // A stricter threshold in the bundled task: the same trajectory must now fail.
+    let task = std::fs::read_to_string(out.join("task.toml")).unwrap();
+    std::fs::write(
+        out.join("task.toml"),
+        format!("{task}\n[check]\nmax_base_disturbance_deg = 1e-9\n"),
+    )
+    .unwrap();
+    let (code, table, _) = run(&["check", "{}"], &[&out]);
+    assert_eq!(code, Some(1));
+    assert!(
+        table
+            .lines()
+            .any(|l| l.starts_with("base disturbance") && l.contains("FAIL")),
+        "{table}"
+    );
+}
+
+// --- record / replay -----------------------------------------------------------------
+
+#[test]
+fn golden_records_replay_bit_for_bit() {
+    let mut records: Vec<PathBuf> = std::fs::read_dir(root().join("tests/records"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    records.sort();
+    assert!(records.len() >= 5, "{records:?}");
+    let mut c = host_sim();
+    c.arg("replay").args(&records);
+    let o = c.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(err.matches("identical").count(), records.len(), "{err}");
+}
+
+#[test]
+fn a_changed_record_or_robot_fails_replay_naming_the_quantity() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Record a copy of the task whose URDF sits beside it, so the robot can be edited.
+    std::fs::copy(
+        root().join("tests/robots/arm6.urdf"),
+        tmp.path().join("arm6.urdf"),
+    )
+    .unwrap();
+    let task = std::fs::read_to_string(arm6())
+        .unwrap()
+        .replace("../../robots/arm6.urdf", "arm6.urdf");
+    std::fs::write(tmp.path().join("task.toml"), task).unwrap();
+    let rec = tmp.path().join("rec.json");
+    let (code, _, err) = run(
+        &["record", "{}", "--out", "{}"],
+        &[&tmp.path().join("task.toml"), &rec],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&rec).unwrap()).unwrap();
+    assert_eq!(v["format"], "reactionless-record/1");
+    assert_eq!(v["urdf_sha256"].as_str().unwrap().len(), 64);
+    for key in ["crate_version", "git_revision", "target", "profile"] {
+        assert!(v["build"][key].is_string(), "build.{key}");
+    }
+    assert!(
+        v["outputs"]["trajectory_digest"]
+            .as_str()
+            .unwrap()
+            .starts_with("0x")
+    );
+    assert_eq!(run(&["replay", "{}"], &[&rec]).0, Some(0));
+    // One bit of eta[2].
+    let mut bad = v.clone();
+    let bits = bad["outputs"]["eta_bits"][2].as_str().unwrap().to_string();
+    let flipped = format!("{:#018x}", u64::from_str_radix(&bits[2..], 16).unwrap() ^ 1);
+    bad["outputs"]["eta_bits"][2] = Value::String(flipped);
+    let bad_path = tmp.path().join("bad.json");
+    std::fs::write(&bad_path, serde_json::to_string_pretty(&bad).unwrap()).unwrap();
+    let (code, _, err) = run(&["replay", "{}"], &[&bad_path]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("mismatch in eta[2]"), "{err}");
+    // The digest.
+    let mut bad = v.clone();
+    bad["outputs"]["trajectory_digest"] = Value::String("0x0000000000000000".into());
+    std::fs::write(&bad_path, serde_json::to_string_pretty(&bad).unwrap()).unwrap();
+    let (code, _, err) = run(&["replay", "{}"], &[&bad_path]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("mismatch in trajectory_digest"), "{err}");
+    // The robot changed under the record.
+    let urdf = std::fs::read_to_string(tmp.path().join("arm6.urdf")).unwrap();
+    std::fs::write(
+        tmp.path().join("arm6.urdf"),
+        urdf.replacen("<mass value=\"40.0\"/>", "<mass value=\"41.0\"/>", 1),
+    )
+    .unwrap();
+    let (code, _, err) = run(&["replay", "{}"], &[&rec]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("urdf_sha256"), "{err}");
+    // Not a record.
+    std::fs::write(&bad_path, "{}").unwrap();
+    assert_eq!(run(&["replay", "{}"], &[&bad_path]).0, Some(2));
+}
+
+// --- plots --------------------------------------------------------------------------
+
+#[test]
+fn plots_on_plan_and_rollout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plan");
+    assert_eq!(
+        run(&["plan", "{}", "--plots", "--out", "{}"], &[&arm6(), &out]).0,
+        Some(0)
+    );
+    for f in [
+        "joints",
+        "joint_rates",
+        "ee_path",
+        "base_attitude",
+        "convergence",
+    ] {
+        for ext in ["png", "svg"] {
+            let p = out.join(format!("{f}.{ext}"));
+            assert!(
+                std::fs::metadata(&p).unwrap().len() > 1000,
+                "{}",
+                p.display()
+            );
+        }
+    }
+    let svg = std::fs::read_to_string(out.join("joints.svg")).unwrap();
+    assert!(svg.contains("time (s)") && svg.contains("joint angle (deg)"));
+    // rollout --plots: no convergence figure.
+    let eta: Vec<String> = {
+        let p: Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+        p["eta"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.to_string())
+            .collect()
+    };
+    let out2 = tmp.path().join("roll");
+    let mut c = host_sim();
+    c.arg("rollout")
+        .arg(arm6())
+        .arg(format!("--eta={}", eta.join(",")))
+        .arg("--plots")
+        .arg("--out")
+        .arg(&out2);
+    assert!(c.output().unwrap().status.success());
+    assert!(out2.join("ee_path.png").exists() && !out2.join("convergence.png").exists());
+    // And the rollout's output checks too.
+    assert_eq!(run(&["check", "{}"], &[&out2]).0, Some(0));
+}
+
+// --- generate -----------------------------------------------------------------------
+
+#[test]
+fn generate_writes_reachable_tasks_deterministically() {
+    let tmp = tempfile::tempdir().unwrap();
+    let urdf = root().join("tests/robots/arm6.urdf");
+    let generate = |out: &Path| {
+        let mut c = host_sim();
+        c.args(["generate", "--urdf"])
+            .arg(&urdf)
+            .args([
+                "--ee",
+                "ee",
+                "--start-deg",
+                "10,-20,30,-40,50,-60",
+                "--count",
+                "3",
+                "--seed",
+                "11",
+                "--out",
+            ])
+            .arg(out);
+        c.output().unwrap()
+    };
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    assert!(generate(&a).status.success());
+    assert!(generate(&b).status.success());
+    for k in 1..=3 {
+        let name = format!("task_{k:03}.toml");
+        let ta = std::fs::read_to_string(a.join(&name)).unwrap();
+        assert_eq!(
+            ta,
+            std::fs::read_to_string(b.join(&name)).unwrap(),
+            "same arguments, same tasks"
+        );
+    }
+    // The target is reachable: the generating eta (in the comment) reaches it with the
+    // truth model, and the planner finds a plan for it.
+    let out = tmp.path().join("plan");
+    let (code, _, err) = run(
+        &["plan", "{}", "--out", "{}"],
+        &[&a.join("task_001.toml"), &out],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let text = std::fs::read_to_string(a.join("task_001.toml")).unwrap();
+    let eta = text
+        .split("eta = [")
+        .nth(1)
+        .unwrap()
+        .split(']')
+        .next()
+        .unwrap()
+        .replace(' ', "");
+    let out2 = tmp.path().join("roll");
+    let mut c = host_sim();
+    c.arg("rollout")
+        .arg(a.join("task_001.toml"))
+        .arg(format!("--eta={eta}"))
+        .arg("--out")
+        .arg(&out2);
+    assert!(c.output().unwrap().status.success());
+    let s: Value =
+        serde_json::from_str(&std::fs::read_to_string(out2.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        s["truth_f"].as_f64().unwrap() < 1e-12,
+        "truth_f {}",
+        s["truth_f"]
+    );
+    // Bad inputs write nothing.
+    let bad = tmp.path().join("bad");
+    let mut c = host_sim();
+    c.args(["generate", "--urdf"])
+        .arg(&urdf)
+        .args([
+            "--start-deg",
+            "10,-20,30,-40,50,-600",
+            "--count",
+            "2",
+            "--seed",
+            "1",
+            "--ee",
+            "ee",
+            "--out",
+        ])
+        .arg(&bad);
+    let o = c.output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("outside the limits of joint 'j6'"));
+    assert!(!bad.exists());
+}
+
+// --- frames -------------------------------------------------------------------------
+
+#[test]
+fn frames_respects_the_budget_and_reports_json() {
+    let (code, out, err) = run(
+        &["frames", "{}", "--frame-budget", "2000", "--json"],
+        &[&arm6()],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let v: Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["converged"], true);
+    assert!(v["max_steps_per_frame"].as_u64().unwrap() <= 2000);
+    assert!(v["frames"].as_u64().unwrap() > 10);
+    assert!(v["mean_steps_per_frame"].as_f64().unwrap() > 1000.0);
+    let (code, _, err) = run(&["frames", "{}", "--frame-budget", "0"], &[&arm6()]);
+    assert_eq!(code, Some(2), "{err}");
+}
+
+// --- campaign -----------------------------------------------------------------------
+
+#[test]
+fn campaign_is_the_same_for_any_number_of_jobs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let go = |jobs: &str, out: &Path| {
+        let mut c = host_sim();
+        c.arg("campaign")
+            .arg(arm6())
+            .arg(root().join("tests/tasks/arm6/task_001.toml"));
+        c.args(["--seeds", "1..3", "--jobs", jobs, "--out"])
+            .arg(out);
+        c.output().unwrap()
+    };
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    assert!(go("1", &a).status.success());
+    assert!(go("2", &b).status.success());
+    let strip = |p: &Path| -> Vec<String> {
+        std::fs::read_to_string(p.join("runs.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+            .collect()
+    };
+    let rows = strip(&a);
+    assert_eq!(rows.len(), 1 + 6);
+    assert_eq!(rows, strip(&b), "everything but wall time is deterministic");
+    let md = std::fs::read_to_string(a.join("summary.md")).unwrap();
+    assert!(
+        md.contains("| iterations |") && md.contains("all tasks") && md.contains("converged"),
+        "{md}"
+    );
+    let (code, _, err) = run(
+        &["campaign", "{}", "--seeds", "5..1", "--out", "{}"],
+        &[&arm6(), &tmp.path().join("c")],
+    );
+    assert_eq!(code, Some(2), "{err}");
+}

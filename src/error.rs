@@ -96,6 +96,24 @@ pub enum RankLoss {
     Basis,
 }
 
+/// What is wrong with a task block ([`crate::block`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BlockFault {
+    /// The magic bytes are not `RLTASK01`.
+    Magic,
+    /// The block is for another joint count.
+    JointCount,
+    /// The length field does not match the layout.
+    Length,
+    /// The CRC-32 does not match.
+    Checksum,
+    /// The data ends early, or the output buffer is too small.
+    Truncated,
+    /// A field holds a value outside its encoding (e.g. a refine flag other than 0 or 1).
+    Field,
+}
+
 /// Everything that can go wrong, as a small `Copy` value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -157,6 +175,11 @@ pub enum Error {
     },
     /// ω_min is larger than ω_max.
     InertiaWeightsInverted,
+    /// A task block is malformed.
+    Block(BlockFault),
+    /// The planner has no task yet ([`crate::Planner::IDLE`] before
+    /// [`crate::Planner::reset`]).
+    NotInitialized,
 }
 
 impl fmt::Display for Body {
@@ -263,6 +286,19 @@ impl fmt::Display for Error {
                 capacity,
             } => write!(f, "{param} {requested} exceeds the capacity of {capacity}"),
             Error::InertiaWeightsInverted => f.write_str("w_min must not exceed w_max"),
+            Error::NotInitialized => f.write_str("the planner has no task yet (call reset)"),
+            Error::Block(fault) => write!(
+                f,
+                "task block: {}",
+                match fault {
+                    BlockFault::Magic => "wrong magic bytes",
+                    BlockFault::JointCount => "built for another joint count",
+                    BlockFault::Length => "wrong length",
+                    BlockFault::Checksum => "CRC-32 mismatch",
+                    BlockFault::Truncated => "too short",
+                    BlockFault::Field => "a field is out of range",
+                }
+            ),
         }
     }
 }

@@ -17,6 +17,11 @@ pub type Vec3 = Vector3<f64>;
 /// 3×3 matrix of `f64` (rotations are proper orthonormal).
 pub type Mat3 = Matrix3<f64>;
 
+/// The zero vector, as a constant.
+pub const ZERO3: Vec3 = Vec3::new(0.0, 0.0, 0.0);
+/// The zero matrix, as a constant.
+pub const ZERO33: Mat3 = Mat3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+
 /// Rotation matrix of URDF roll-pitch-yaw angles (rad): `R = Rz(yaw)·Ry(pitch)·Rx(roll)`.
 ///
 /// Zero angles give the identity exactly.
@@ -302,6 +307,12 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// All zeros (not a valid pose: a placeholder for statically allocated state).
+    pub const ZERO: Self = Self {
+        position: [0.0; 3],
+        quat_wxyz: [0.0; 4],
+    };
+
     /// Pose from a position and a rotation matrix.
     #[must_use]
     pub fn from_parts(position: &Vec3, rotation: &Mat3) -> Self {

@@ -47,6 +47,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod block;
 pub mod digest;
 pub mod error;
 pub mod execute;
@@ -66,7 +67,7 @@ pub mod trajectory;
 pub mod truth;
 
 pub use digest::TrajectoryDigest;
-pub use error::{Body, Error, Param, RankLoss};
+pub use error::{BlockFault, Body, Error, Param, RankLoss};
 pub use execute::Setpoints;
 pub use geometry::{Pose, PoseError, Sym3};
 pub use kinematics::{Frames, LinkFrame};

@@ -15,7 +15,9 @@
 //! see [`crate::kinematics`].
 
 use crate::error::{Body, Error, Param};
-use crate::geometry::{Mat3, Sym3, Vec3, frame_with_z, rot_z, rpy_matrix, zxz_angles};
+use crate::geometry::{
+    Mat3, Sym3, Vec3, ZERO3, ZERO33, frame_with_z, rot_z, rpy_matrix, zxz_angles,
+};
 
 /// Tolerance on the norm of unit vectors and quaternions in inputs: `|‖v‖ − 1| ≤ 1e-6`.
 pub const UNIT_TOLERANCE: f64 = 1e-6;
@@ -71,6 +73,9 @@ pub struct Inertia {
 }
 
 impl Inertia {
+    /// All zeros (a placeholder, not a valid tensor).
+    pub const ZERO: Self = Self::diagonal(0.0, 0.0, 0.0);
+
     /// Diagonal tensor `diag(ixx, iyy, izz)`.
     #[must_use]
     pub const fn diagonal(ixx: f64, iyy: f64, izz: f64) -> Self {
@@ -186,6 +191,48 @@ pub struct Robot<const N: usize> {
 }
 
 impl<const N: usize> Robot<N> {
+    /// All zeros: not a usable model, a placeholder for statically allocated planners
+    /// (see [`crate::Planner::IDLE`]).
+    pub const IDLE: Self = {
+        let body = BodyDesc {
+            mass: 0.0,
+            inertial: Origin::IDENTITY,
+            inertia: Inertia::ZERO,
+        };
+        Self {
+            desc: RobotDesc {
+                base: body,
+                joints: [JointDesc {
+                    origin: Origin::IDENTITY,
+                    axis: [0.0; 3],
+                    lower: 0.0,
+                    upper: 0.0,
+                    velocity: 0.0,
+                }; N],
+                links: [body; N],
+                end_effector: Origin::IDENTITY,
+            },
+            segments: [Segment {
+                twist: (0.0, 0.0),
+                theta: 0.0,
+                offset: ZERO3,
+                mass: 0.0,
+                com: ZERO3,
+                inertia: ZERO33,
+            }; N],
+            root: ZERO33,
+            base_mass: 0.0,
+            base_com: ZERO3,
+            base_inertia: Sym3::ZERO,
+            ee_offset: ZERO3,
+            ee_rot: ZERO33,
+            total_mass: 0.0,
+            lower: [0.0; N],
+            upper: [0.0; N],
+            qd_max: 0.0,
+        }
+    };
+
     /// Validates `desc` and precomputes the joint frames.
     ///
     /// # Errors
@@ -199,18 +246,19 @@ impl<const N: usize> Robot<N> {
     /// assert!((robot.total_mass() - 1093.0).abs() < 1e-12);
     /// ```
     pub fn new(desc: &RobotDesc<N>) -> Result<Self, Error> {
+        let mut r = Self::IDLE;
+        r.init(desc)?;
+        Ok(r)
+    }
+
+    /// Validates `desc` and builds the model in place, exactly as [`Robot::new`] would (no
+    /// model-sized temporaries: flight software keeps models in static memory).
+    ///
+    /// # Errors
+    /// As [`Robot::new`]; the model is then unusable until a successful `init`.
+    pub fn init(&mut self, desc: &RobotDesc<N>) -> Result<(), Error> {
         const { assert!(N >= 1 && N <= 255, "joint count must be in 1..=255") };
         let (base_mass, base_com, base_inertia) = validate_body(&desc.base, Body::Base)?;
-        let mut segments = [Segment {
-            twist: (0.0, 1.0),
-            theta: 0.0,
-            offset: Vec3::zeros(),
-            mass: 0.0,
-            com: Vec3::zeros(),
-            inertia: Mat3::zeros(),
-        }; N];
-        let mut lower = [0.0; N];
-        let mut upper = [0.0; N];
         let mut qd_max = f64::INFINITY;
         let mut total_mass = base_mass;
         // Pass 1: a joint frame Q_i per joint (z on the axis, Q_0 = base frame) and the
@@ -238,8 +286,8 @@ impl<const N: usize> Robot<N> {
             .joints
             .iter()
             .zip(desc.links.iter())
-            .zip(segments.iter_mut())
-            .zip(lower.iter_mut().zip(upper.iter_mut()))
+            .zip(self.segments.iter_mut())
+            .zip(self.lower.iter_mut().zip(self.upper.iter_mut()))
             .zip(frames.iter().zip(zxz.iter()))
             .enumerate();
         for (i, ((((joint, link), seg), (lo, up)), (frame, &(_, b, c)))) in items {
@@ -269,20 +317,16 @@ impl<const N: usize> Robot<N> {
             return Err(Error::NotFinite(Param::EndEffector));
         }
         let q_last_t = q_prev.transpose();
-        Ok(Self {
-            desc: *desc,
-            segments,
-            root,
-            base_mass,
-            base_com,
-            base_inertia,
-            ee_offset: q_last_t * desc.end_effector.translation(),
-            ee_rot: q_last_t * desc.end_effector.rotation(),
-            total_mass,
-            lower,
-            upper,
-            qd_max,
-        })
+        self.desc = *desc;
+        self.root = root;
+        self.base_mass = base_mass;
+        self.base_com = base_com;
+        self.base_inertia = base_inertia;
+        self.ee_offset = q_last_t * desc.end_effector.translation();
+        self.ee_rot = q_last_t * desc.end_effector.rotation();
+        self.total_mass = total_mass;
+        self.qd_max = qd_max;
+        Ok(())
     }
 
     /// The description this model was built from.

@@ -103,6 +103,11 @@ pub struct Basis<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Basis<N, K> {
+    /// All zeros (a placeholder for statically allocated state).
+    pub const IDLE: Self = Self {
+        cols: [[0.0; N]; K],
+    };
+
     /// `N₀ = MGS(P(q)·E)` for `A = H~bm(q)` given by its columns.
     ///
     /// # Errors

@@ -224,6 +224,79 @@ fn cost_of<const N: usize>(o: &Outcome<N>) -> Cost {
 }
 
 impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
+    /// A planner without a task, `const`: flight software places it in static memory and
+    /// gives it work with [`Planner::reset`], so the 20-odd KiB of state never pass through
+    /// the stack. [`Planner::step`] returns [`Error::NotInitialized`] until then.
+    pub const IDLE: Self = Self {
+        task: Task::IDLE,
+        config: PlannerConfig::reference(0),
+        stream: Stream::IDLE,
+        swarm: Swarm::IDLE,
+        phase: Phase::Failed(Error::NotInitialized),
+        rollout: None,
+        eta: [[0.0; 2]; K],
+        best: None,
+        rollouts: 0,
+        swarm_rollouts: 0,
+        iterations: 0,
+        swarm_f: f64::INFINITY,
+        last_error: None,
+        spent: 0,
+    };
+
+    /// Starts planning `task` from scratch, in place: the planner ends up exactly as
+    /// [`Planner::new`] would build it. Only small temporaries are used.
+    ///
+    /// # Errors
+    /// A bad setting (see [`PlannerConfig::validate`]); the planner is then idle and
+    /// [`Planner::step`] returns the same error.
+    pub fn reset(&mut self, task: Task<N, K>, config: PlannerConfig) -> Result<(), Error> {
+        self.task = task;
+        self.restart(config)
+    }
+
+    /// Leaves the planner idle with error `e` (returned by every [`Planner::step`]).
+    pub(crate) fn fail(&mut self, e: Error) {
+        self.phase = Phase::Failed(e);
+    }
+
+    /// The task, for building it in place ([`Task::init`]) before [`Planner::restart`].
+    pub fn task_mut(&mut self) -> &mut Task<N, K> {
+        self.phase = Phase::Failed(Error::NotInitialized);
+        &mut self.task
+    }
+
+    /// Starts planning the planner's current task from scratch with `config`, in place.
+    ///
+    /// # Errors
+    /// As [`Planner::reset`].
+    pub fn restart(&mut self, config: PlannerConfig) -> Result<(), Error> {
+        self.rollout = None;
+        self.best = None;
+        self.eta = [[0.0; 2]; K];
+        self.rollouts = 0;
+        self.swarm_rollouts = 0;
+        self.iterations = 0;
+        self.swarm_f = f64::INFINITY;
+        self.last_error = None;
+        self.spent = 0;
+        if let Err(e) = config.validate(P) {
+            self.phase = Phase::Failed(e);
+            return Err(e);
+        }
+        self.config = config;
+        self.stream = Stream::new(config.seed);
+        if let Err(e) = self.swarm.reset(&config.swarm, &mut self.stream) {
+            self.phase = Phase::Failed(e);
+            return Err(e);
+        }
+        self.phase = Phase::Swarm {
+            iteration: 0,
+            particle: 0,
+        };
+        Ok(())
+    }
+
     /// A planner for `task`, its swarm at its initial positions.
     ///
     /// # Errors
@@ -258,28 +331,9 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// assert!(plan.outcome.f <= 0.05 && plan.outcome.phi == 0.0);
     /// ```
     pub fn new(task: Task<N, K>, config: PlannerConfig) -> Result<Self, Error> {
-        config.validate(P)?;
-        let mut stream = Stream::new(config.seed);
-        let swarm = Swarm::new(&config.swarm, &mut stream)?;
-        Ok(Self {
-            task,
-            config,
-            stream,
-            swarm,
-            phase: Phase::Swarm {
-                iteration: 0,
-                particle: 0,
-            },
-            rollout: None,
-            eta: [[0.0; 2]; K],
-            best: None,
-            rollouts: 0,
-            swarm_rollouts: 0,
-            iterations: 0,
-            swarm_f: f64::INFINITY,
-            last_error: None,
-            spent: 0,
-        })
+        let mut p = Self::IDLE;
+        p.reset(task, config)?;
+        Ok(p)
     }
 
     /// The task.

@@ -15,16 +15,24 @@ const INV_2_53: f64 = 1.0 / 9_007_199_254_740_992.0;
 /// A seeded stream of uniform numbers.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Stream {
-    rng: Xoshiro256PlusPlus,
+    /// `None` only in [`Stream::IDLE`] (a placeholder for statically allocated planners).
+    rng: Option<Xoshiro256PlusPlus>,
     draws: u64,
 }
 
 impl Stream {
+    /// A placeholder without a generator (it yields zeros); replaced by [`Stream::new`]
+    /// before any use. Lets planners be `const`-initialised in static memory.
+    pub const IDLE: Self = Self {
+        rng: None,
+        draws: 0,
+    };
+
     /// The stream of `seed`.
     #[must_use]
     pub fn new(seed: u64) -> Self {
         Self {
-            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            rng: Some(Xoshiro256PlusPlus::seed_from_u64(seed)),
             draws: 0,
         }
     }
@@ -32,7 +40,7 @@ impl Stream {
     /// Next raw 64-bit value.
     pub fn next_u64(&mut self) -> u64 {
         self.draws += 1;
-        self.rng.next_u64()
+        self.rng.as_mut().map_or(0, Rng::next_u64)
     }
 
     /// Uniform in `[0, 1)`: the top 53 bits of the next value.

@@ -225,14 +225,10 @@ pub struct Swarm<const K: usize, const P: usize> {
 }
 
 impl<const K: usize, const P: usize> Swarm<K, P> {
-    /// A swarm at its initial positions (drawn from `stream`), zero velocities, costs
-    /// unknown ([`Cost::FAILED`] until recorded).
-    ///
-    /// # Errors
-    /// A bad setting (see [`SwarmConfig::validate`]).
-    pub fn new(config: &SwarmConfig, stream: &mut Stream) -> Result<Self, Error> {
-        config.validate(P)?;
-        let empty = Particle {
+    /// No particles in use (a placeholder, `const`, for statically allocated planners).
+    pub const IDLE: Self = Self {
+        config: SwarmConfig::reference(0),
+        particles: [Particle {
             position: [[0.0; 2]; K],
             velocity: [[0.0; 2]; K],
             best: [[0.0; 2]; K],
@@ -240,25 +236,57 @@ impl<const K: usize, const P: usize> Swarm<K, P> {
             cost: Cost::FAILED,
             boost: 0.0,
             restart: false,
-        };
-        let mut particles = [empty; P];
+        }; P],
+        count: 0,
+        gbest: 0,
+        history: Deque::new(),
+        split_pending: false,
+        stagnation_events: 0,
+    };
+
+    /// A swarm at its initial positions (drawn from `stream`), zero velocities, costs
+    /// unknown ([`Cost::FAILED`] until recorded).
+    ///
+    /// # Errors
+    /// A bad setting (see [`SwarmConfig::validate`]).
+    pub fn new(config: &SwarmConfig, stream: &mut Stream) -> Result<Self, Error> {
+        let mut s = Self::IDLE;
+        s.reset(config, stream)?;
+        Ok(s)
+    }
+
+    /// Re-initialises the swarm in place, exactly as [`Swarm::new`] would build it (no
+    /// large temporaries: flight software keeps the swarm in static memory).
+    ///
+    /// # Errors
+    /// A bad setting (see [`SwarmConfig::validate`]); the swarm is then left empty.
+    pub fn reset(&mut self, config: &SwarmConfig, stream: &mut Stream) -> Result<(), Error> {
+        self.count = 0;
+        config.validate(P)?;
         let count = config.particles as usize;
         let b = config.eta_bound;
-        for p in particles.iter_mut().take(count) {
-            for v in p.position.iter_mut().flatten() {
-                *v = b * (2.0 * stream.uniform() - 1.0);
+        for (j, p) in self.particles.iter_mut().enumerate() {
+            p.velocity = [[0.0; 2]; K];
+            p.best_cost = Cost::FAILED;
+            p.cost = Cost::FAILED;
+            p.boost = 0.0;
+            p.restart = false;
+            if j < count {
+                for v in p.position.iter_mut().flatten() {
+                    *v = b * (2.0 * stream.uniform() - 1.0);
+                }
+            } else {
+                p.position = [[0.0; 2]; K];
             }
             p.best = p.position;
         }
-        Ok(Self {
-            config: *config,
-            particles,
-            count,
-            gbest: 0,
-            history: Deque::new(),
-            split_pending: false,
-            stagnation_events: 0,
-        })
+        self.config = *config;
+        self.count = count;
+        self.gbest = 0;
+        self.history.clear();
+        self.split_pending = false;
+        self.stagnation_events = 0;
+        Ok(())
     }
 
     /// The settings.

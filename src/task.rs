@@ -26,6 +26,18 @@ pub struct Task<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Task<N, K> {
+    /// A placeholder (zero robot, no steps) for statically allocated planners; see
+    /// [`crate::Planner::IDLE`].
+    pub const IDLE: Self = Self {
+        robot: Robot::IDLE,
+        q0: [0.0; N],
+        target: Pose::ZERO,
+        motion: Motion::IDLE,
+        com0: crate::geometry::ZERO3,
+        start_pose: Pose::ZERO,
+        basis0: Basis::IDLE,
+    };
+
     /// Validates the start `q0` (rad) against the limits and the target (position in m,
     /// unit quaternion `[w,x,y,z]` within [`UNIT_TOLERANCE`], re-normalised), and computes
     /// the start frames and the initial basis.
@@ -43,7 +55,32 @@ impl<const N: usize, const K: usize> Task<N, K> {
     /// assert!((task.start_pose().position[0] - 1.411848994172882).abs() < 1e-12);
     /// ```
     pub fn new(robot: Robot<N>, q0: [f64; N], target: Pose, motion: Motion) -> Result<Self, Error> {
+        let mut t = Self::IDLE;
+        t.robot = robot;
+        t.finish(q0, target, motion)?;
+        Ok(t)
+    }
+
+    /// Builds the task in place from a robot description, exactly as [`Task::new`] with
+    /// [`Robot::new`] would (no task-sized temporaries, for static memory).
+    ///
+    /// # Errors
+    /// As [`Robot::new`] and [`Task::new`]; the task is then unusable.
+    pub fn init(
+        &mut self,
+        robot: &crate::model::RobotDesc<N>,
+        q0: [f64; N],
+        target: Pose,
+        motion: Motion,
+    ) -> Result<(), Error> {
+        self.robot.init(robot)?;
+        self.finish(q0, target, motion)
+    }
+
+    /// Everything after the robot: start, target, motion, start frames, initial basis.
+    fn finish(&mut self, q0: [f64; N], target: Pose, motion: Motion) -> Result<(), Error> {
         let () = Dims::<N, K>::VALID;
+        let robot = &self.robot;
         let limits = robot.lower().iter().zip(robot.upper().iter());
         for (i, (q, (lo, hi))) in q0.iter().zip(limits).enumerate() {
             let j = (i + 1) as u8;
@@ -55,20 +92,15 @@ impl<const N: usize, const K: usize> Task<N, K> {
             }
         }
         let target = validate_pose(&target)?;
-        let frames = Frames::new(&robot, &q0);
-        let basis0 = Basis::initial(&coupling(&robot, &frames))
-            .map_err(|cause| Error::RankLoss { step: 0, cause })?;
-        let com0 = frames.com;
-        let start_pose = frames.end_pose(&com0, IDENTITY_WXYZ);
-        Ok(Self {
-            robot,
-            q0,
-            target,
-            motion,
-            com0,
-            start_pose,
-            basis0,
-        })
+        let frames = Frames::new(robot, &q0);
+        let basis0 = Basis::initial(&coupling(robot, &frames)).map_err(rank_error(0))?;
+        self.com0 = frames.com;
+        self.start_pose = frames.end_pose(&self.com0, IDENTITY_WXYZ);
+        self.q0 = q0;
+        self.target = target;
+        self.motion = motion;
+        self.basis0 = basis0;
+        Ok(())
     }
 
     /// The robot model.

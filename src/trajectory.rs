@@ -32,6 +32,14 @@ pub struct Motion {
 }
 
 impl Motion {
+    /// Zero steps (a placeholder for statically allocated state).
+    pub const IDLE: Self = Self {
+        tf: 0.0,
+        dt: 0.0,
+        n: 1,
+        steps: 0,
+    };
+
     /// A motion of duration `tf_s` (s) integrated with step `dt_s` (s), time-law degree `n`.
     ///
     /// # Errors

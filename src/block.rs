@@ -1,0 +1,469 @@
+//! The task block: how a whole planning task crosses from the ground to the flight image.
+//!
+//! Owns [`TaskBlock`] and its fixed little-endian byte layout ([`encode`], [`decode`]). A
+//! block carries the robot description (so any robot with the image's `N` can be planned
+//! without rebuilding), the start, the target, the time grid and every planner setting, and
+//! ends with a CRC-32 (IEEE 802.3) over all preceding bytes. Decoding is bounds-checked and
+//! rejects a wrong magic, joint count, length or checksum with a typed error; the values
+//! are then validated by the usual constructors ([`crate::Robot::new`], [`crate::Task::new`],
+//! [`crate::Planner::new`]).
+//!
+//! Layout (all little-endian; `f64` as IEEE-754 bits):
+//!
+//! | bytes | field |
+//! |---|---|
+//! | 8 | magic `RLTASK01` |
+//! | 4 | `N` (u32) |
+//! | 4 | total length in bytes, checksum included (u32) |
+//! | 13·8 | base: mass, inertial xyz, inertial rpy, ixx ixy ixz iyy iyz izz |
+//! | N·12·8 | joints: origin xyz, origin rpy, axis, lower, upper, velocity |
+//! | N·13·8 | links: as the base |
+//! | 6·8 | end effector: xyz, rpy |
+//! | N·8 | start q₀ (rad) |
+//! | 7·8 | target: position (m), quaternion `[w, x, y, z]` |
+//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32) |
+//! | 4 + 4 | particles, max_iterations (u32) |
+//! | 6·8 | c1, c2, w_max, w_min, tolerance, eta_bound |
+//! | 8 | seed (u64) |
+//! | 4 + 3·8 | stagnation window (u32); min_relative_improvement, eps1, eps2 |
+//! | 4 + 8 + 4 | refine flag (u32, 0 or 1), refine tolerance, refine max rollouts (u32) |
+//! | 4 | frame budget (u32, integration steps per call of `step`) |
+//! | 4 | CRC-32 of everything above |
+
+use crate::error::{BlockFault, Error};
+use crate::geometry::Pose;
+use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
+use crate::planner::{Planner, PlannerConfig};
+use crate::refine::RefineConfig;
+use crate::swarm::{StagnationConfig, SwarmConfig};
+use crate::trajectory::Motion;
+
+/// The block's magic bytes.
+pub const MAGIC: [u8; 8] = *b"RLTASK01";
+
+/// Size in bytes of a block for `n` joints.
+#[must_use]
+pub const fn block_len(n: usize) -> usize {
+    8 + 4
+        + 4
+        + 13 * 8
+        + n * 12 * 8
+        + n * 13 * 8
+        + 6 * 8
+        + n * 8
+        + 7 * 8
+        + 2 * 8
+        + 4
+        + 4
+        + 4
+        + 6 * 8
+        + 8
+        + 4
+        + 3 * 8
+        + 4
+        + 8
+        + 4
+        + 4
+        + 4
+}
+
+/// Everything the flight image needs to plan one task.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TaskBlock<const N: usize> {
+    /// The robot.
+    pub robot: RobotDesc<N>,
+    /// Start configuration (rad).
+    pub q0: [f64; N],
+    /// Target pose (inertial frame).
+    pub target: Pose,
+    /// Duration (s).
+    pub tf_s: f64,
+    /// Integration step (s).
+    pub dt_s: f64,
+    /// Time-law degree.
+    pub n: u32,
+    /// Planner settings.
+    pub planner: PlannerConfig,
+    /// Integration steps the flight software gives the planner per frame.
+    pub frame_budget: u32,
+}
+
+impl<const N: usize> TaskBlock<N> {
+    /// Gives `planner` this block's task and settings, building everything in place (the
+    /// robot model, the task, the swarm): nothing planner- or task-sized passes through
+    /// the stack. This is how flight software loads a task into a statically allocated
+    /// [`Planner`].
+    ///
+    /// # Errors
+    /// Any validation error of the robot, motion, task or settings; the planner is then
+    /// idle and [`Planner::step`] returns the error.
+    pub fn load_into<const K: usize, const P: usize>(
+        &self,
+        planner: &mut Planner<N, K, P>,
+    ) -> Result<(), Error> {
+        let loaded = Motion::new(self.tf_s, self.dt_s, self.n).and_then(|motion| {
+            planner
+                .task_mut()
+                .init(&self.robot, self.q0, self.target, motion)
+        });
+        match loaded {
+            Ok(()) => planner.restart(self.planner),
+            Err(e) => {
+                planner.fail(e);
+                Err(e)
+            }
+        }
+    }
+}
+
+/// CRC-32 (IEEE 802.3, reflected, polynomial `0xEDB88320`), bitwise.
+#[must_use]
+pub fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = 0xFFFF_FFFFu32;
+    for b in bytes {
+        crc ^= u32::from(*b);
+        for _ in 0..8 {
+            let mask = (crc & 1).wrapping_neg();
+            crc = (crc >> 1) ^ (0xEDB8_8320 & mask);
+        }
+    }
+    !crc
+}
+
+struct Writer<'a> {
+    out: &'a mut [u8],
+    at: usize,
+    overflow: bool,
+}
+
+impl Writer<'_> {
+    fn bytes(&mut self, b: &[u8]) {
+        match self.out.get_mut(self.at..self.at + b.len()) {
+            Some(dst) => dst.copy_from_slice(b),
+            None => self.overflow = true,
+        }
+        self.at += b.len();
+    }
+    fn u32(&mut self, v: u32) {
+        self.bytes(&v.to_le_bytes());
+    }
+    fn u64(&mut self, v: u64) {
+        self.bytes(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.u64(v.to_bits());
+    }
+    fn f64s(&mut self, v: &[f64]) {
+        for x in v {
+            self.f64(*x);
+        }
+    }
+    fn body(&mut self, b: &BodyDesc) {
+        self.f64(b.mass);
+        self.f64s(&b.inertial.xyz);
+        self.f64s(&b.inertial.rpy);
+        let i = &b.inertia;
+        self.f64s(&[i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz]);
+    }
+}
+
+struct Reader<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take<const M: usize>(&mut self) -> Result<[u8; M], Error> {
+        let mut out = [0u8; M];
+        let src = self
+            .data
+            .get(self.at..self.at + M)
+            .ok_or(Error::Block(BlockFault::Truncated))?;
+        out.copy_from_slice(src);
+        self.at += M;
+        Ok(out)
+    }
+    fn u32(&mut self) -> Result<u32, Error> {
+        Ok(u32::from_le_bytes(self.take()?))
+    }
+    fn u64(&mut self) -> Result<u64, Error> {
+        Ok(u64::from_le_bytes(self.take()?))
+    }
+    fn f64(&mut self) -> Result<f64, Error> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    fn f64s<const M: usize>(&mut self) -> Result<[f64; M], Error> {
+        let mut out = [0.0; M];
+        for v in &mut out {
+            *v = self.f64()?;
+        }
+        Ok(out)
+    }
+    fn body(&mut self) -> Result<BodyDesc, Error> {
+        let mass = self.f64()?;
+        let xyz = self.f64s::<3>()?;
+        let rpy = self.f64s::<3>()?;
+        let [ixx, ixy, ixz, iyy, iyz, izz] = self.f64s::<6>()?;
+        Ok(BodyDesc {
+            mass,
+            inertial: Origin { xyz, rpy },
+            inertia: Inertia {
+                ixx,
+                ixy,
+                ixz,
+                iyy,
+                iyz,
+                izz,
+            },
+        })
+    }
+}
+
+/// Writes `block` into `out`; returns the number of bytes written ([`block_len`]).
+///
+/// # Errors
+/// [`BlockFault::Truncated`] if `out` is shorter than [`block_len`]`(N)`.
+pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<usize, Error> {
+    let len = block_len(N);
+    let mut w = Writer {
+        out,
+        at: 0,
+        overflow: false,
+    };
+    w.bytes(&MAGIC);
+    w.u32(N as u32);
+    w.u32(len as u32);
+    w.body(&block.robot.base);
+    for j in &block.robot.joints {
+        w.f64s(&j.origin.xyz);
+        w.f64s(&j.origin.rpy);
+        w.f64s(&j.axis);
+        w.f64s(&[j.lower, j.upper, j.velocity]);
+    }
+    for l in &block.robot.links {
+        w.body(l);
+    }
+    w.f64s(&block.robot.end_effector.xyz);
+    w.f64s(&block.robot.end_effector.rpy);
+    w.f64s(&block.q0);
+    w.f64s(&block.target.position);
+    w.f64s(&block.target.quat_wxyz);
+    w.f64(block.tf_s);
+    w.f64(block.dt_s);
+    w.u32(block.n);
+    let p = &block.planner;
+    let s = &p.swarm;
+    w.u32(s.particles);
+    w.u32(s.max_iterations);
+    w.f64s(&[s.c1, s.c2, s.w_max, s.w_min, p.tolerance, s.eta_bound]);
+    w.u64(p.seed);
+    w.u32(s.stagnation.window);
+    w.f64s(&[
+        s.stagnation.min_relative_improvement,
+        s.stagnation.eps1,
+        s.stagnation.eps2,
+    ]);
+    let (flag, tol, rollouts) = match p.refine {
+        Some(r) => (1, r.tolerance, r.max_rollouts),
+        None => (0, 0.0, 0),
+    };
+    w.u32(flag);
+    w.f64(tol);
+    w.u32(rollouts);
+    w.u32(block.frame_budget);
+    let crc = crc32(w.out.get(..w.at).unwrap_or(&[]));
+    w.u32(crc);
+    if w.overflow || w.at != len {
+        return Err(Error::Block(BlockFault::Truncated));
+    }
+    Ok(len)
+}
+
+/// Reads a block for `N` joints from `data` (trailing bytes after the block are ignored).
+///
+/// # Errors
+/// [`Error::Block`] naming what is wrong: magic, joint count, length, checksum, truncation,
+/// or a refine flag other than 0 or 1.
+pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
+    let len = block_len(N);
+    let mut r = Reader { data, at: 0 };
+    if r.take::<8>()? != MAGIC {
+        return Err(Error::Block(BlockFault::Magic));
+    }
+    if r.u32()? as usize != N {
+        return Err(Error::Block(BlockFault::JointCount));
+    }
+    if r.u32()? as usize != len {
+        return Err(Error::Block(BlockFault::Length));
+    }
+    let body = data
+        .get(..len - 4)
+        .ok_or(Error::Block(BlockFault::Truncated))?;
+    let stored = data
+        .get(len - 4..len)
+        .and_then(|b| b.try_into().ok())
+        .map(u32::from_le_bytes)
+        .ok_or(Error::Block(BlockFault::Truncated))?;
+    if crc32(body) != stored {
+        return Err(Error::Block(BlockFault::Checksum));
+    }
+    let base = r.body()?;
+    let mut joints = [JointDesc {
+        origin: Origin::IDENTITY,
+        axis: [0.0; 3],
+        lower: 0.0,
+        upper: 0.0,
+        velocity: 0.0,
+    }; N];
+    for j in &mut joints {
+        let xyz = r.f64s::<3>()?;
+        let rpy = r.f64s::<3>()?;
+        let axis = r.f64s::<3>()?;
+        let [lower, upper, velocity] = r.f64s::<3>()?;
+        *j = JointDesc {
+            origin: Origin { xyz, rpy },
+            axis,
+            lower,
+            upper,
+            velocity,
+        };
+    }
+    let mut links = [base; N];
+    for l in &mut links {
+        *l = r.body()?;
+    }
+    let ee = Origin {
+        xyz: r.f64s::<3>()?,
+        rpy: r.f64s::<3>()?,
+    };
+    let mut q0 = [0.0; N];
+    for q in &mut q0 {
+        *q = r.f64()?;
+    }
+    let target = Pose {
+        position: r.f64s::<3>()?,
+        quat_wxyz: r.f64s::<4>()?,
+    };
+    let tf_s = r.f64()?;
+    let dt_s = r.f64()?;
+    let n = r.u32()?;
+    let particles = r.u32()?;
+    let max_iterations = r.u32()?;
+    let [c1, c2, w_max, w_min, tolerance, eta_bound] = r.f64s::<6>()?;
+    let seed = r.u64()?;
+    let window = r.u32()?;
+    let [min_relative_improvement, eps1, eps2] = r.f64s::<3>()?;
+    let flag = r.u32()?;
+    let refine_tolerance = r.f64()?;
+    let refine_rollouts = r.u32()?;
+    let frame_budget = r.u32()?;
+    let refine = match flag {
+        0 => None,
+        1 => Some(RefineConfig {
+            tolerance: refine_tolerance,
+            max_rollouts: refine_rollouts,
+        }),
+        _ => return Err(Error::Block(BlockFault::Field)),
+    };
+    Ok(TaskBlock {
+        robot: RobotDesc {
+            base,
+            joints,
+            links,
+            end_effector: ee,
+        },
+        q0,
+        target,
+        tf_s,
+        dt_s,
+        n,
+        planner: PlannerConfig {
+            swarm: SwarmConfig {
+                particles,
+                max_iterations,
+                c1,
+                c2,
+                w_max,
+                w_min,
+                eta_bound,
+                stagnation: StagnationConfig {
+                    window,
+                    min_relative_improvement,
+                    eps1,
+                    eps2,
+                },
+            },
+            tolerance,
+            seed,
+            refine,
+        },
+        frame_budget,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+    use crate::model::CHASER7;
+    use crate::reference::{Q0_DEG, TARGET};
+
+    fn block() -> TaskBlock<7> {
+        let mut planner = PlannerConfig::reference(42);
+        planner.refine = Some(RefineConfig {
+            tolerance: 1e-6,
+            max_rollouts: 300,
+        });
+        TaskBlock {
+            robot: CHASER7,
+            q0: Q0_DEG.map(f64::to_radians),
+            target: TARGET,
+            tf_s: 30.0,
+            dt_s: 0.01,
+            n: 1,
+            planner,
+            frame_budget: 3000,
+        }
+    }
+
+    #[test]
+    fn crc32_known_answer() {
+        // The standard check value of CRC-32/ISO-HDLC.
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+    }
+
+    #[test]
+    fn roundtrip_is_exact() {
+        let mut buf = [0u8; 4096];
+        let len = encode(&block(), &mut buf).unwrap();
+        assert_eq!(len, block_len(7));
+        assert_eq!(decode::<7>(&buf[..len]).unwrap(), block());
+    }
+
+    #[test]
+    fn every_corruption_is_caught() {
+        let mut buf = [0u8; 4096];
+        let len = encode(&block(), &mut buf).unwrap();
+        for i in 0..len {
+            let mut bad = buf;
+            bad[i] ^= 0x10;
+            assert!(
+                decode::<7>(&bad[..len]).is_err(),
+                "flip at byte {i} not detected"
+            );
+        }
+        assert_eq!(
+            decode::<6>(&buf[..len]),
+            Err(Error::Block(BlockFault::JointCount))
+        );
+        assert_eq!(
+            decode::<7>(&buf[..len - 1]),
+            Err(Error::Block(BlockFault::Truncated))
+        );
+        assert_eq!(
+            encode(&block(), &mut buf[..100]),
+            Err(Error::Block(BlockFault::Truncated))
+        );
+    }
+}

@@ -1,0 +1,212 @@
+//! The flight image: plans the task QEMU's loader placed in RAM with the reactionless core,
+//! in frames of a fixed integration budget, and reports the plan's bits over defmt.
+//!
+//! Thin on purpose: every computation is the core's; this file only wires the task block,
+//! the frame loop (an embedded-hal "planner busy" LED around each frame, a delay between
+//! frames), the measurement markers and the report.
+//!
+//! Markers: the `rl_mark_*` functions do nothing but a distinct store; host-sim reads their
+//! addresses from the ELF and QEMU's instruction-counting plugin logs the instruction count
+//! each time one is entered.
+#![no_std]
+#![no_main]
+
+mod board;
+mod logger;
+
+use board::{Delay, Led, exit, stack_high_water, task_block};
+use cortex_m as _;
+use cortex_m_rt::entry;
+use embedded_hal::delay::DelayNs;
+use embedded_hal::digital::OutputPin;
+use reactionless::block::decode;
+use reactionless::{Error, Planner, Progress, Rollout, Status, TrajectoryDigest};
+
+/// The flight robot's joint count and null-space dimension.
+const N: usize = 7;
+const K: usize = N - 3;
+/// Swarm capacity of the flight image.
+const P: usize = 64;
+
+macro_rules! marker {
+    ($name:ident, $id:expr) => {
+        /// Region marker (see the crate documentation). The `nop` is an effect the compiler
+        /// must keep and the distinct id keeps the markers from being merged.
+        #[allow(unsafe_code)]
+        #[unsafe(no_mangle)]
+        #[inline(never)]
+        pub extern "C" fn $name() {
+            core::hint::black_box($id as u32);
+            cortex_m::asm::nop();
+        }
+    };
+}
+marker!(rl_mark_call_begin, 1);
+marker!(rl_mark_call_end, 2);
+marker!(rl_mark_rollout_begin, 3);
+marker!(rl_mark_rollout_end, 4);
+marker!(rl_mark_step_begin, 5);
+marker!(rl_mark_step_end, 6);
+
+/// The statically allocated planner, handed out once.
+fn planner_slot() -> Option<&'static mut Planner<N, K, P>> {
+    static mut PLANNER: Planner<N, K, P> = Planner::IDLE;
+    static TAKEN: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+    if TAKEN.swap(true, core::sync::atomic::Ordering::Relaxed) {
+        return None;
+    }
+    // SAFETY: TAKEN makes this the only reference ever created to PLANNER (single core,
+    // no interrupts touch it).
+    #[allow(unsafe_code)]
+    Some(unsafe { &mut *core::ptr::addr_of_mut!(PLANNER) })
+}
+
+/// The integration step timed on its own (inside the plan's rollout).
+const TIMED_STEP: u32 = 1500;
+
+#[entry]
+fn main() -> ! {
+    defmt::println!("reactionless firmware {=str}", env!("CARGO_PKG_VERSION"));
+    defmt::println!(
+        "SIZES planner={=usize} task={=usize} rollout={=usize}",
+        core::mem::size_of::<Planner<N, K, P>>(),
+        core::mem::size_of::<reactionless::Task<N, K>>(),
+        core::mem::size_of::<Rollout<N, K>>()
+    );
+    #[cfg(feature = "panic-canary")]
+    canary();
+    let code = match run() {
+        Ok(()) => 0,
+        Err(e) => {
+            defmt::println!("ERROR {}", e);
+            1
+        }
+    };
+    let (used, size) = stack_high_water();
+    defmt::println!("STACK {=u32} {=u32}", used, size);
+    defmt::println!("EXIT {=i32}", code);
+    exit(code)
+}
+
+fn run() -> Result<(), Error> {
+    let planner = planner_slot().ok_or(Error::NotInitialized)?;
+    let frame_budget = load(planner)?;
+    defmt::println!("PLAN frame_budget={=u32}", frame_budget);
+    let (converged, frames) = plan(planner, frame_budget)?;
+    measure(planner, converged, frames)
+}
+
+/// Decodes the task block and gives the planner its task, in place. Its own frame: the
+/// block, the robot and the task are dropped before planning starts.
+#[inline(never)]
+fn load(planner: &mut Planner<N, K, P>) -> Result<u32, Error> {
+    let block = decode::<N>(task_block())?;
+    block.load_into(planner)?;
+    Ok(block.frame_budget)
+}
+
+/// Plans in frames: the "planner busy" LED is on while the planner runs, a short pause
+/// separates frames. Returns whether it converged and the number of frames.
+#[inline(never)]
+fn plan(planner: &mut Planner<N, K, P>, frame_budget: u32) -> Result<(bool, u32), Error> {
+    let mut busy = Led::new(0);
+    let mut delay = Delay;
+    let mut frames: u32 = 0;
+    loop {
+        let _ = busy.set_high();
+        rl_mark_call_begin();
+        let s = planner.step(frame_budget, &mut ())?;
+        rl_mark_call_end();
+        let _ = busy.set_low();
+        frames += 1;
+        match s {
+            Status::Running(_) => delay.delay_us(1),
+            Status::Converged(_) => return Ok((true, frames)),
+            Status::Exhausted(_) => return Ok((false, frames)),
+        }
+    }
+}
+
+/// Re-runs the plan's rollout (timed), its digest and one step (timed), and reports.
+#[inline(never)]
+fn measure(planner: &mut Planner<N, K, P>, converged: bool, frames: u32) -> Result<(), Error> {
+    let plan = match planner.step(1, &mut ())? {
+        Status::Converged(p) | Status::Exhausted(p) => p,
+        Status::Running(_) => return Err(Error::NotInitialized),
+    };
+    let task = planner.task();
+    rl_mark_rollout_begin();
+    let again = task.rollout(&plan.eta, &mut ())?;
+    rl_mark_rollout_end();
+    let mut digest = TrajectoryDigest::new();
+    task.rollout(&plan.eta, &mut digest)?;
+    let mut r = Rollout::new(task, &plan.eta)?;
+    r.advance(task, TIMED_STEP, &mut ())?;
+    rl_mark_step_begin();
+    let p = r.advance(task, 1, &mut ())?;
+    rl_mark_step_end();
+    let same = again == plan.outcome && matches!(p, Progress::Running { .. });
+
+    let o = &plan.outcome;
+    defmt::println!(
+        "RESULT converged={=bool} iterations={=u32} rollouts={=u32} stagnation={=u32} frames={=u32} f={=u64:#018x} samples={=u32} digest={=u64:#018x} reproducible={=bool}",
+        converged,
+        plan.iterations,
+        plan.rollouts,
+        plan.stagnation_events,
+        frames,
+        o.f.to_bits(),
+        digest.samples(),
+        digest.value(),
+        same
+    );
+    for (i, v) in plan.eta.iter().flatten().enumerate() {
+        defmt::println!("ETA {=usize} {=u64:#018x}", i, v.to_bits());
+    }
+    for (i, v) in o
+        .end_pose
+        .position
+        .iter()
+        .chain(o.end_pose.quat_wxyz.iter())
+        .enumerate()
+    {
+        defmt::println!("POSE {=usize} {=u64:#018x}", i, v.to_bits());
+    }
+    Ok(())
+}
+
+/// A panic path no optimisation can remove (an index read from the task block): with the
+/// `panic-canary` feature the image must fail to link.
+#[cfg(feature = "panic-canary")]
+#[inline(never)]
+#[allow(clippy::indexing_slicing)]
+fn canary() {
+    let table = [1u8, 2, 3, 4];
+    let i = usize::from(task_block().first().copied().unwrap_or(0));
+    defmt::println!("canary {=u8}", table[i]);
+}
+
+/// Release images prove panic freedom at link time: this handler calls a function that
+/// exists nowhere, so if any panic path survives optimisation the link fails.
+#[cfg(not(debug_assertions))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    #[allow(unsafe_code)]
+    unsafe extern "Rust" {
+        fn reactionless_firmware_panic_path_survived_optimisation() -> !;
+    }
+    // SAFETY: never executed: the symbol does not exist, so an image that could reach this
+    // line does not link.
+    #[allow(unsafe_code)]
+    unsafe {
+        reactionless_firmware_panic_path_survived_optimisation()
+    }
+}
+
+/// Debug images (not optimised, so bounds checks remain) report and stop.
+#[cfg(debug_assertions)]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    defmt::println!("PANIC");
+    exit(101)
+}

@@ -168,6 +168,22 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Plan a task on the flight target (the Cortex-M7 image under QEMU) and compare bit for
+    /// bit with the host; report instructions per step, per rollout and per call, stack,
+    /// flash and static RAM. Exit 0 only when bit-identical and within budgets.
+    Target {
+        /// Task file (TOML) for the flight robot (7 joints).
+        task: PathBuf,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Use the image already built instead of building it first.
+        #[arg(long)]
+        no_build: bool,
+        /// Give up on the emulation after this many seconds.
+        #[arg(long, default_value_t = 1800)]
+        timeout_s: u64,
+    },
     /// Time the core on a task: one step, one rollout, and planning over seeds 1..10.
     Bench {
         /// Task file (TOML).
@@ -204,6 +220,12 @@ fn run(cli: Cli) -> Result<(), CliError> {
         ),
         Command::Bench { task, json } => cmd::bench::run(&task, json),
         Command::Check { dir } => cmd::check::run(&dir),
+        Command::Target {
+            task,
+            json,
+            no_build,
+            timeout_s,
+        } => cmd::target::run(&task, json, !no_build, timeout_s),
         Command::Record {
             task,
             out,

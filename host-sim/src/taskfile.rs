@@ -120,6 +120,9 @@ pub struct PlannerSection {
     pub refine_tolerance: Option<f64>,
     /// Most rollouts refinement may spend.
     pub refine_max_rollouts: u32,
+    /// Integration steps the flight software gives the planner per frame (`target`,
+    /// `frames` default).
+    pub frame_budget: u32,
     /// `[planner.stagnation]`.
     pub stagnation: StagnationSection,
 }
@@ -138,6 +141,7 @@ impl Default for PlannerSection {
             seed: 1,
             refine_tolerance: None,
             refine_max_rollouts: 400,
+            frame_budget: 3000,
             stagnation: StagnationSection::default(),
         }
     }
@@ -431,6 +435,9 @@ impl LoadedTask {
     ) -> Result<PlannerConfig, CliError> {
         let p = &self.file.planner;
         let st = &p.stagnation;
+        if p.frame_budget == 0 {
+            return Err(self.err("[planner] frame_budget = 0 must be at least 1 integration step"));
+        }
         let refine_tolerance = refine_tolerance.or(p.refine_tolerance);
         let config = PlannerConfig {
             swarm: SwarmConfig {

@@ -394,3 +394,38 @@ fn campaign_is_the_same_for_any_number_of_jobs() {
     );
     assert_eq!(code, Some(2), "{err}");
 }
+
+// --- target (the QEMU run itself is in .ci/run; here what needs no emulator) -------------
+
+#[test]
+fn target_rejects_a_robot_the_flight_image_is_not_built_for() {
+    let (code, _, err) = run(&["target", "{}", "--no-build"], &[&arm6()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("built for 7 joints; this robot has 6"),
+        "{err}"
+    );
+}
+
+#[test]
+fn task_blocks_round_trip_through_the_core() {
+    // What host-sim sends to the target decodes to the same task, bit for bit.
+    let lt = host_sim::taskfile::load(&root().join("spec/tasks/paper.toml")).unwrap();
+    let bytes = host_sim::cmd::target::task_block(&lt).unwrap();
+    let block = reactionless::block::decode::<7>(&bytes).unwrap();
+    assert_eq!(block.robot, reactionless::CHASER7);
+    assert_eq!(
+        block.q0,
+        reactionless::reference::Q0_DEG.map(f64::to_radians)
+    );
+    assert_eq!(block.frame_budget, 3000);
+    assert_eq!(block.planner.seed, 1);
+    let mut planner: Box<reactionless::Planner<7, 4, 64>> = Box::new(reactionless::Planner::IDLE);
+    block.load_into(&mut planner).unwrap();
+    let direct = lt.task::<7, 4>().unwrap();
+    assert_eq!(
+        planner.task(),
+        &direct,
+        "load_into builds the task host-sim builds"
+    );
+}

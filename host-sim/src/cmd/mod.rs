@@ -9,3 +9,4 @@ pub mod model;
 pub mod plan;
 pub mod record;
 pub mod rollout;
+pub mod target;

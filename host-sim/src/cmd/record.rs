@@ -162,8 +162,9 @@ pub fn relative(from: &Path, to: &Path) -> Result<PathBuf, CliError> {
     Ok(out)
 }
 
-/// Plans `lt` and computes the outputs a record holds.
-fn outputs<const N: usize, const K: usize>(
+/// Plans `lt` and computes the outputs a record holds (with the effective seed and
+/// refinement tolerance).
+pub fn outputs_of<const N: usize, const K: usize>(
     lt: &LoadedTask,
     seed: Option<u64>,
     refine: Option<f64>,
@@ -218,7 +219,7 @@ pub fn record(
     refine: Option<f64>,
 ) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
-    let (outputs, seed, refine) = with_dims!(lt.chain.dof(), outputs, &lt, seed, refine)?;
+    let (outputs, seed, refine) = with_dims!(lt.chain.dof(), outputs_of, &lt, seed, refine)?;
     // The task text, with the URDF path made relative to where the record will live.
     let record_dir = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -388,7 +389,7 @@ pub fn replay(path: &Path) -> Result<(), CliError> {
     )?;
     let (now, _, _) = with_dims!(
         lt.chain.dof(),
-        outputs,
+        outputs_of,
         &lt,
         Some(rec.seed),
         rec.refine_tolerance

@@ -1,0 +1,508 @@
+//! `host-sim target`: the task on the flight target (the Cortex-M7 image under QEMU),
+//! compared bit for bit with the host, with the target's measured budgets.
+//!
+//! Steps:
+//! 1. encode the task as a task block (`reactionless::block`, CRC-32) for the flight robot's
+//!    joint count (7);
+//! 2. build the image and the instruction-counting plugin (`scripts/build-firmware.sh`);
+//! 3. run `qemu-system-arm -machine mps2-an500 -cpu cortex-m7` with the block loaded at
+//!    `0x203f0000`, `-icount shift=0` and the plugin marking the image's `rl_mark_*`
+//!    functions (addresses from the ELF symbol table);
+//! 4. decode the image's defmt output (semihosting stdout) with the ELF's defmt table;
+//! 5. plan the same task on the host and compare status, counts, η, f, the end pose and the
+//!    trajectory digest bit for bit;
+//! 6. report instructions per integration step, per rollout and the most per `step` call
+//!    over the whole plan at the task's frame budget, the painted-stack high-water mark and
+//!    flash and static RAM from the ELF, and check them against the budgets.
+//!
+//! Exit 0 only when bit-identical and within budgets; 1 otherwise; 2 for bad input.
+
+use crate::cmd::plan::HOST_CAPACITY;
+use crate::cmd::record::{Outputs, PoseBits, bits, first_difference};
+use crate::error::CliError;
+use crate::taskfile::{self, LoadedTask};
+use object::{Object, ObjectSection, ObjectSymbol};
+use reactionless::Pose;
+use reactionless::block::{TaskBlock, block_len, encode};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// The flight robot's joint count (the image is built for it).
+pub const FLIGHT_N: usize = 7;
+/// Swarm capacity of the flight image.
+pub const FLIGHT_P: usize = 64;
+/// Where QEMU's loader puts the task block (`TASK` in memory.x).
+pub const TASK_ADDR: u32 = 0x203f_0000;
+/// Stack budget (bytes).
+pub const STACK_BUDGET: u64 = 16 * 1024;
+/// Static RAM budget (bytes).
+pub const STATIC_RAM_BUDGET: u64 = 64 * 1024;
+
+/// What `target` reports.
+#[derive(Debug, Serialize)]
+pub struct TargetJson {
+    /// Every output of the image equals the host's, bit for bit.
+    pub bit_identical: bool,
+    /// The first differing quantity, if any.
+    pub first_difference: Option<String>,
+    /// Instructions of one integration step (step 1500 of the plan's rollout).
+    pub instructions_per_step: u64,
+    /// Instructions of one full rollout of the plan's η.
+    pub instructions_per_rollout: u64,
+    /// Most instructions of one `Planner::step(frame_budget)` call over the whole plan.
+    pub max_instructions_per_call: u64,
+    /// Mean instructions per call.
+    pub mean_instructions_per_call: f64,
+    /// `step` calls (frames) until the planner finished.
+    pub calls: u64,
+    /// Integration steps per call.
+    pub frame_budget: u32,
+    /// All instructions of the run, boot to exit.
+    pub total_instructions: u64,
+    /// Deepest stack use (painted stack), bytes.
+    pub stack_high_water_bytes: u64,
+    /// Flash used: vector table, code and read-only data (bytes).
+    pub flash_bytes: u64,
+    /// Static RAM: data and bss (bytes).
+    pub static_ram_bytes: u64,
+    /// `size_of::<Planner<7, 4, 64>>()` on the target (bytes), part of the static RAM.
+    pub planner_bytes: u64,
+    /// Image outputs: converged, iterations, rollouts.
+    pub converged: bool,
+    /// C-PSO iterations on the target.
+    pub iterations: u32,
+    /// Rollouts on the target.
+    pub rollouts: u32,
+    /// Trajectory digest on the target.
+    pub trajectory_digest: String,
+    /// Within the stack and static RAM budgets.
+    pub within_budgets: bool,
+    /// Wall time of the emulation (s).
+    pub qemu_seconds: f64,
+    /// The image.
+    pub elf: String,
+}
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The task block of a task file, for the flight robot.
+pub fn task_block(lt: &LoadedTask) -> Result<Vec<u8>, CliError> {
+    if lt.chain.dof() != FLIGHT_N {
+        return Err(CliError::input(format!(
+            "{}: the flight image is built for {FLIGHT_N} joints; this robot has {}",
+            lt.path.display(),
+            lt.chain.dof()
+        )));
+    }
+    // Validate everything the image will validate, with the host's messages.
+    let task = lt.task::<7, 4>()?;
+    let planner = lt.planner(FLIGHT_P, None, None)?;
+    let block = TaskBlock::<7> {
+        robot: lt.chain.desc::<7>()?,
+        q0: *task.start(),
+        target: Pose {
+            position: lt.target()?.position,
+            quat_wxyz: lt.target()?.quat_wxyz,
+        },
+        tf_s: lt.file.motion.tf_s,
+        dt_s: lt.file.motion.dt_s,
+        n: lt.file.motion.n,
+        planner,
+        frame_budget: lt.file.planner.frame_budget,
+    };
+    let mut buf = vec![0u8; block_len(7)];
+    encode(&block, &mut buf).map_err(|e| CliError::internal(e.to_string()))?;
+    Ok(buf)
+}
+
+fn build(root: &Path) -> Result<PathBuf, CliError> {
+    let o = Command::new(root.join("scripts/build-firmware.sh"))
+        .output()
+        .map_err(|e| CliError::input(format!("cannot run scripts/build-firmware.sh: {e}")))?;
+    if !o.status.success() {
+        return Err(CliError::input(format!(
+            "building the flight image failed (needs Debian's rustc-web, rust-web-src, lld; see .ci/run):\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        )));
+    }
+    let rel = String::from_utf8_lossy(&o.stdout).trim().to_string();
+    Ok(root.join(rel))
+}
+
+/// Marker addresses (Thumb bit cleared), in the plugin's index order.
+const MARKERS: [&str; 6] = [
+    "rl_mark_call_begin",
+    "rl_mark_call_end",
+    "rl_mark_rollout_begin",
+    "rl_mark_rollout_end",
+    "rl_mark_step_begin",
+    "rl_mark_step_end",
+];
+
+struct Elf {
+    markers: Vec<u64>,
+    flash: u64,
+    static_ram: u64,
+}
+
+fn read_elf(bytes: &[u8]) -> Result<Elf, CliError> {
+    let file = object::File::parse(bytes).map_err(|e| CliError::input(format!("ELF: {e}")))?;
+    let mut markers = Vec::new();
+    for name in MARKERS {
+        let sym = file
+            .symbols()
+            .find(|s| s.name() == Ok(name))
+            .ok_or_else(|| CliError::input(format!("ELF: no symbol {name}")))?;
+        markers.push(sym.address() & !1);
+    }
+    let (mut flash, mut static_ram) = (0, 0);
+    for s in file.sections() {
+        let name = s.name().unwrap_or("");
+        match name {
+            ".vector_table" | ".text" | ".rodata" => flash += s.size(),
+            ".data" => {
+                flash += s.size();
+                static_ram += s.size();
+            }
+            ".bss" | ".uninit" => static_ram += s.size(),
+            _ => {}
+        }
+    }
+    Ok(Elf {
+        markers,
+        flash,
+        static_ram,
+    })
+}
+
+/// Decodes the image's defmt stream into text lines.
+fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Vec<String>, CliError> {
+    let table = defmt_decoder::Table::parse(elf)
+        .map_err(|e| CliError::input(format!("defmt table: {e}")))?
+        .ok_or_else(|| CliError::input("the ELF has no defmt table"))?;
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(stream);
+    let mut lines = Vec::new();
+    loop {
+        match decoder.decode() {
+            Ok(frame) => lines.push(frame.display_message().to_string()),
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                return Err(CliError::failed("the image's defmt stream is malformed"));
+            }
+        }
+    }
+    Ok(lines)
+}
+
+/// Fields `key=value` of the line starting with `tag`.
+fn fields<'a>(lines: &'a [String], tag: &str) -> Option<Vec<(&'a str, &'a str)>> {
+    let line = lines.iter().find(|l| l.starts_with(tag))?;
+    Some(
+        line.split_whitespace()
+            .skip(1)
+            .filter_map(|kv| kv.split_once('='))
+            .collect(),
+    )
+}
+
+fn field<'a>(f: &[(&'a str, &'a str)], key: &str) -> Result<&'a str, CliError> {
+    f.iter()
+        .find(|(k, _)| *k == key)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| CliError::failed(format!("the image did not report {key}")))
+}
+
+fn hex(s: &str) -> Result<u64, CliError> {
+    u64::from_str_radix(s.trim_start_matches("0x"), 16)
+        .map_err(|_| CliError::failed(format!("the image reported {s:?}, not a hex number")))
+}
+
+/// Lines `TAG index 0x…` as bit-pattern strings, in index order.
+fn indexed(lines: &[String], tag: &str) -> Result<Vec<String>, CliError> {
+    let mut v: Vec<(usize, u64)> = Vec::new();
+    for l in lines.iter().filter(|l| l.starts_with(tag)) {
+        let mut it = l.split_whitespace().skip(1);
+        let (Some(i), Some(b)) = (it.next(), it.next()) else {
+            continue;
+        };
+        let i: usize = i
+            .parse()
+            .map_err(|_| CliError::failed(format!("bad line {l:?}")))?;
+        v.push((i, hex(b)?));
+    }
+    v.sort_unstable();
+    Ok(v.into_iter().map(|(_, b)| format!("{b:#018x}")).collect())
+}
+
+/// The image's outputs, in the form of a record's.
+fn target_outputs(lines: &[String]) -> Result<(Outputs, u64, u64), CliError> {
+    if let Some(e) = lines.iter().find(|l| l.starts_with("ERROR")) {
+        return Err(CliError::failed(format!("the image reported: {e}")));
+    }
+    let r = fields(lines, "RESULT").ok_or_else(|| {
+        CliError::failed(format!(
+            "the image reported no result: {}",
+            lines.join(" | ")
+        ))
+    })?;
+    let num = |k: &str| -> Result<u32, CliError> {
+        field(&r, k)?
+            .parse()
+            .map_err(|_| CliError::failed(format!("bad {k} in the image's report")))
+    };
+    let eta_bits = indexed(lines, "ETA")?;
+    let pose = indexed(lines, "POSE")?;
+    let f = f64::from_bits(hex(field(&r, "f")?)?);
+    let outputs = Outputs {
+        status: if field(&r, "converged")? == "true" {
+            "converged"
+        } else {
+            "not_converged"
+        }
+        .into(),
+        iterations: num("iterations")?,
+        rollouts: num("rollouts")?,
+        stagnation_events: num("stagnation")?,
+        eta: eta_bits
+            .iter()
+            .map(|b| hex(b).map(f64::from_bits))
+            .collect::<Result<_, _>>()?,
+        eta_bits,
+        f_bits: bits(f),
+        f,
+        end_pose_bits: PoseBits {
+            position: pose.iter().take(3).cloned().collect(),
+            quat_wxyz: pose.iter().skip(3).cloned().collect(),
+        },
+        trajectory_samples: num("samples")?,
+        trajectory_digest: format!("{:#018x}", hex(field(&r, "digest")?)?),
+    };
+    let stack = lines
+        .iter()
+        .find(|l| l.starts_with("STACK"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|v| v.parse().ok())
+        .ok_or_else(|| CliError::failed("the image reported no stack use"))?;
+    if field(&r, "reproducible")? != "true" {
+        return Err(CliError::failed(
+            "the image's re-run rollout differed from its plan",
+        ));
+    }
+    Ok((outputs, stack, u64::from(num("frames")?)))
+}
+
+/// Instruction figures from the plugin's log: per step, per rollout, max and mean per call.
+fn instruction_stats(log: &str) -> Result<(u64, u64, u64, f64, u64, u64), CliError> {
+    let mut open: [Option<u64>; 3] = [None; 3];
+    let (mut step, mut rollout, mut max_call, mut sum, mut calls, mut total) =
+        (0, 0, 0, 0u64, 0u64, 0);
+    for l in log.lines() {
+        let mut it = l.split_whitespace();
+        let (Some(a), Some(b)) = (it.next(), it.next()) else {
+            continue;
+        };
+        let count: u64 = b
+            .parse()
+            .map_err(|_| CliError::failed(format!("plugin log: {l:?}")))?;
+        if a == "total" {
+            total = count;
+            continue;
+        }
+        let id: usize = a
+            .parse()
+            .map_err(|_| CliError::failed(format!("plugin log: {l:?}")))?;
+        let region = id / 2;
+        if id % 2 == 0 {
+            open[region] = Some(count);
+        } else if let Some(start) = open[region].take() {
+            let d = count - start;
+            match region {
+                0 => {
+                    max_call = max_call.max(d);
+                    sum += d;
+                    calls += 1;
+                }
+                1 => rollout = d,
+                _ => step = d,
+            }
+        }
+    }
+    if total == 0 || calls == 0 {
+        return Err(CliError::failed(
+            "the instruction-counting plugin logged nothing",
+        ));
+    }
+    Ok((
+        step,
+        rollout,
+        max_call,
+        sum as f64 / calls as f64,
+        calls,
+        total,
+    ))
+}
+
+/// Runs the subcommand.
+pub fn run(
+    task_path: &Path,
+    json: bool,
+    build_first: bool,
+    timeout_s: u64,
+) -> Result<(), CliError> {
+    let lt = taskfile::load(task_path)?;
+    let block = task_block(&lt)?;
+    let root = repo_root();
+    let elf_path = if build_first {
+        build(&root)?
+    } else {
+        root.join("target/firmware/thumbv7em-none-eabihf/release/reactionless-firmware")
+    };
+    let plugin = root.join("target/qemu/libinsn.so");
+    let elf_bytes = std::fs::read(&elf_path).map_err(|e| {
+        CliError::input(format!(
+            "{}: {e} (build it with scripts/build-firmware.sh)",
+            elf_path.display()
+        ))
+    })?;
+    let elf = read_elf(&elf_bytes)?;
+    let work = tempfile_dir()?;
+    let block_path = work.join("task.bin");
+    let log_path = work.join("insn.log");
+    std::fs::write(&block_path, &block).map_err(|e| CliError::input(e.to_string()))?;
+    let mut plugin_arg = format!("{},out={}", plugin.display(), log_path.display());
+    for m in &elf.markers {
+        plugin_arg.push_str(&format!(",mark={m:x}"));
+    }
+    let start = Instant::now();
+    let out = Command::new("timeout")
+        .arg(timeout_s.to_string())
+        .args([
+            "qemu-system-arm",
+            "-machine",
+            "mps2-an500",
+            "-cpu",
+            "cortex-m7",
+            "-nographic",
+        ])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=0,align=off,sleep=off"])
+        .arg("-device")
+        .arg(format!(
+            "loader,file={},addr={TASK_ADDR:#x}",
+            block_path.display()
+        ))
+        .arg("-plugin")
+        .arg(plugin_arg)
+        .arg("-kernel")
+        .arg(&elf_path)
+        .output()
+        .map_err(|e| CliError::input(format!("cannot run qemu-system-arm: {e}")))?;
+    let qemu_seconds = start.elapsed().as_secs_f64();
+    let lines = decode_defmt(&elf_bytes, &out.stdout)?;
+    if !out.status.success() {
+        return Err(CliError::failed(format!(
+            "QEMU exited with {} after {qemu_seconds:.0} s: {} {}",
+            out.status,
+            lines.join(" | "),
+            String::from_utf8_lossy(&out.stderr)
+        )));
+    }
+    let (on_target, stack, frames) = target_outputs(&lines)?;
+    let planner_bytes = fields(&lines, "SIZES")
+        .and_then(|f| {
+            f.iter()
+                .find(|(k, _)| *k == "planner")
+                .and_then(|(_, v)| v.parse().ok())
+        })
+        .ok_or_else(|| CliError::failed("the image reported no sizes"))?;
+    let log = std::fs::read_to_string(&log_path)
+        .map_err(|e| CliError::failed(format!("plugin log: {e}")))?;
+    let (step, rollout, max_call, mean_call, calls, total) = instruction_stats(&log)?;
+    // The same task on the host.
+    let (on_host, _, _) = crate::with_dims!(lt.chain.dof(), host_outputs, &lt)?;
+    let diff = first_difference(&on_host, &on_target)
+        .map(|(what, host, target)| format!("{what}: host {host}, target {target}"));
+    let within = stack <= STACK_BUDGET && elf.static_ram <= STATIC_RAM_BUDGET;
+    let report = TargetJson {
+        bit_identical: diff.is_none(),
+        first_difference: diff.clone(),
+        instructions_per_step: step,
+        instructions_per_rollout: rollout,
+        max_instructions_per_call: max_call,
+        mean_instructions_per_call: mean_call,
+        calls,
+        frame_budget: lt.file.planner.frame_budget,
+        total_instructions: total,
+        stack_high_water_bytes: stack,
+        flash_bytes: elf.flash,
+        static_ram_bytes: elf.static_ram,
+        planner_bytes,
+        converged: on_target.status == "converged",
+        iterations: on_target.iterations,
+        rollouts: on_target.rollouts,
+        trajectory_digest: on_target.trajectory_digest.clone(),
+        within_budgets: within,
+        qemu_seconds,
+        elf: elf_path.display().to_string(),
+    };
+    let _ = std::fs::remove_dir_all(&work);
+    if calls != frames {
+        return Err(CliError::failed(format!(
+            "the plugin saw {calls} calls, the image reported {frames} frames"
+        )));
+    }
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).map_err(|e| CliError::internal(e.to_string()))?
+        );
+    } else {
+        println!(
+            "bit-identical to the host  {}",
+            if report.bit_identical { "yes" } else { "NO" }
+        );
+        println!("instructions per step      {step}");
+        println!("instructions per rollout   {rollout}");
+        println!(
+            "instructions per call      {max_call} max, {mean_call:.0} mean over {calls} calls of {} steps",
+            report.frame_budget
+        );
+        println!("stack high-water           {stack} bytes (budget {STACK_BUDGET})");
+        println!(
+            "static RAM                 {} bytes (budget {STATIC_RAM_BUDGET}; planner {})",
+            elf.static_ram, report.planner_bytes
+        );
+        println!("flash                      {} bytes", elf.flash);
+        println!(
+            "plan on target             {} in {} iterations, {} rollouts; emulation {qemu_seconds:.1} s",
+            on_target.status, on_target.iterations, on_target.rollouts
+        );
+    }
+    match (diff, within) {
+        (Some(d), _) => Err(CliError::failed(format!("target and host differ: {d}"))),
+        (None, false) => Err(CliError::failed(
+            "the image exceeds its stack or static RAM budget",
+        )),
+        (None, true) => Ok(()),
+    }
+}
+
+fn host_outputs<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+) -> Result<(Outputs, u64, Option<f64>), CliError> {
+    // The flight capacity is 64, the host's 256: results do not depend on it.
+    let _ = HOST_CAPACITY;
+    crate::cmd::record::outputs_of::<N, K>(lt, None, None)
+}
+
+fn tempfile_dir() -> Result<PathBuf, CliError> {
+    let dir = std::env::temp_dir().join(format!("host-sim-target-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| CliError::input(format!("{}: {e}", dir.display())))?;
+    Ok(dir)
+}

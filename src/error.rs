@@ -148,6 +148,9 @@ pub enum Error {
     },
     /// η is zero (all β ≡ 0): no motion is defined.
     EtaZero,
+    /// η is so large that `g` of eq. 14 overflows an `f64` (only η's direction matters:
+    /// scale it down).
+    EtaTooLarge,
     /// The reaction null space lost rank at integration step `step` (0 = start).
     RankLoss {
         /// Integration step (0-based; 0 is the start configuration).
@@ -265,6 +268,9 @@ impl fmt::Display for Error {
                 write!(f, "expected {expected} values, got {got}")
             }
             Error::EtaZero => f.write_str("eta is zero: no motion is defined"),
+            Error::EtaTooLarge => f.write_str(
+                "eta is so large that g of eq. 14 overflows (only its direction matters: scale it down)",
+            ),
             Error::RankLoss { step, cause } => match cause {
                 RankLoss::Coupling => write!(
                     f,

@@ -12,7 +12,9 @@
 //!
 //! Only η's direction matters. η is first scaled by an exact power of two so that its
 //! largest component lies in `[1, 2)`: results are bit-identical to the unscaled η for any
-//! ordinary magnitude and extreme magnitudes (1e±300, subnormals) work.
+//! ordinary magnitude, and extreme magnitudes (1e±300, subnormals) work. The one limit is
+//! that `g`, reported for η as given, must be a finite `f64`: an η for which it overflows
+//! (`|η|·t_f^{n+2}/q̇_max ≳ 1e308`) is rejected with [`Error::EtaTooLarge`].
 
 use crate::error::{Error, Param};
 
@@ -210,6 +212,9 @@ impl<const K: usize> TimeLaw<K> {
             // Every β_i ≡ 0 up to rounding (cannot happen for a non-zero η; kept as a guard).
             return Err(Error::EtaZero);
         }
+        if !libm::scalbn(g, -scale_exp).is_finite() {
+            return Err(Error::EtaTooLarge);
+        }
         Ok(Self {
             ab,
             tf,
@@ -250,7 +255,7 @@ impl<const K: usize> TimeLaw<K> {
         self.beta_max.map(|b| libm::scalbn(b, -self.scale_exp))
     }
 
-    /// `g` of eq. 14 for the η as given (may overflow to ∞ for η near `f64::MAX`).
+    /// `g` of eq. 14 for the η as given (finite: see [`Error::EtaTooLarge`]).
     #[must_use]
     pub fn g(&self) -> f64 {
         libm::scalbn(self.g, -self.scale_exp)
@@ -364,11 +369,16 @@ mod tests {
         let tiny = TimeLaw::new(&[[5e-324, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
         let one = TimeLaw::new(&[[1.0, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
         assert_eq!(tiny.alpha(7.0), one.alpha(7.0));
-        let huge = TimeLaw::new(&[[libm::scalbn(1.0, 1023), 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
+        let huge = TimeLaw::new(&[[libm::scalbn(1.0, 990), 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
         assert_eq!(huge.alpha(7.0), one.alpha(7.0));
-        let max = TimeLaw::new(&[[f64::MAX, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
-        assert!((max.alpha(7.0)[0] - one.alpha(7.0)[0]).abs() < 1e-15);
-        assert!(max.g().is_infinite());
+        // 1e300 still works; near f64::MAX, g itself would overflow: a clear error.
+        let big = TimeLaw::new(&[[1e300, 0.0], [0.0, 0.0]], &m, 0.26).unwrap();
+        assert!(big.g().is_finite());
+        assert!((big.alpha(7.0)[0] - one.alpha(7.0)[0]).abs() < 1e-15);
+        assert_eq!(
+            TimeLaw::new(&[[f64::MAX, 0.0], [0.0, 0.0]], &m, 0.26),
+            Err(Error::EtaTooLarge)
+        );
     }
 
     #[test]

@@ -101,6 +101,9 @@ pub fn eta_error(e: CoreError) -> CliError {
             CliError::input(format!("--eta component {i} is not a finite number"))
         }
         CoreError::EtaZero => CliError::input("--eta is all zeros: no motion is defined"),
+        CoreError::EtaTooLarge => CliError::input(
+            "--eta is so large that g of eq. 14 overflows; only its direction matters: scale it down",
+        ),
         other => CliError::input(format!("--eta: {other}")),
     }
 }

@@ -406,3 +406,105 @@ fn a_task_of_another_robot_plans_too() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
+    // Every candidate's η is so large that g overflows: each rollout is rejected
+    // (EtaTooLarge), the particle gets Φ = f = ∞, progress stays finite-or-∞ (never NaN),
+    // and with nothing ever evaluated the planner ends with the typed error.
+    let mut cfg = PlannerConfig::reference(3);
+    cfg.swarm.particles = 6;
+    cfg.swarm.max_iterations = 2;
+    cfg.swarm.eta_bound = 1e307;
+    let mut p = RefPlanner::new(paper_task(), cfg).unwrap();
+    let mut last = None;
+    for _ in 0..1000 {
+        match p.step(1, &mut ()) {
+            Ok(Status::Running(r)) => {
+                assert!(!r.best.f.is_nan() && !r.best.phi.is_nan());
+                assert_eq!(r.best, Cost::FAILED);
+            }
+            Ok(s) => panic!("cannot succeed: {s:?}"),
+            Err(e) => {
+                last = Some(e);
+                break;
+            }
+        }
+    }
+    assert_eq!(last, Some(Error::EtaTooLarge));
+    assert_eq!(
+        p.step(10, &mut ()),
+        Err(Error::EtaTooLarge),
+        "the failure is sticky"
+    );
+    assert_eq!(p.swarm().particle(0).unwrap().best_cost, Cost::FAILED);
+}
+
+#[test]
+fn task_constructor_names_every_bad_input() {
+    use reactionless::{Motion, Pose, Robot, Task};
+    let robot = || Robot::new(&reactionless::CHASER7).unwrap();
+    let m = Motion::new(1.0, 0.01, 1).unwrap();
+    let mut q = q0();
+    q[3] = 3.0;
+    assert_eq!(
+        Task::<7, 4>::new(robot(), q, TARGET, m).unwrap_err(),
+        Error::StartOutsideLimits(4)
+    );
+    let mut q = q0();
+    q[6] = f64::NAN;
+    assert_eq!(
+        Task::<7, 4>::new(robot(), q, TARGET, m).unwrap_err(),
+        Error::NotFinite(Param::Start(7))
+    );
+    let zero = Pose {
+        quat_wxyz: [0.0; 4],
+        ..TARGET
+    };
+    assert_eq!(
+        Task::<7, 4>::new(robot(), q0(), zero, m).unwrap_err(),
+        Error::QuaternionNotUnit
+    );
+    let nan = Pose {
+        position: [0.0, f64::NAN, 0.0],
+        ..TARGET
+    };
+    assert_eq!(
+        Task::<7, 4>::new(robot(), q0(), nan, m).unwrap_err(),
+        Error::NotFinite(Param::TargetPosition)
+    );
+    // A quaternion within 1e-6 of unit length is accepted and normalised.
+    let near = Pose {
+        quat_wxyz: TARGET.quat_wxyz.map(|v| v * (1.0 + 5e-7)),
+        ..TARGET
+    };
+    let t = Task::<7, 4>::new(robot(), q0(), near, m).unwrap();
+    let n: f64 = t.target().quat_wxyz.iter().map(|v| v * v).sum();
+    assert!((n - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn an_idle_planner_refuses_to_run() {
+    let mut p: Box<RefPlanner> = Box::new(reactionless::Planner::IDLE);
+    assert_eq!(p.step(100, &mut ()), Err(Error::NotInitialized));
+    // A failed reset leaves it refusing, with that error.
+    let mut bad = PlannerConfig::reference(1);
+    bad.swarm.particles = 0;
+    assert_eq!(
+        p.reset(paper_task(), bad),
+        Err(Error::NotPositive(Param::Particles))
+    );
+    assert_eq!(
+        p.step(100, &mut ()),
+        Err(Error::NotPositive(Param::Particles))
+    );
+    // And a good reset makes it plan exactly as a new planner.
+    p.reset(paper_task(), PlannerConfig::reference(2)).unwrap();
+    let a = run(&mut p, u32::MAX).0;
+    let b = run(
+        &mut RefPlanner::new(paper_task(), PlannerConfig::reference(2)).unwrap(),
+        u32::MAX,
+    )
+    .0;
+    assert_eq!(bits(plan_of(&a)), bits(plan_of(&b)));
+}

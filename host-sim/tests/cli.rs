@@ -282,6 +282,43 @@ fn bad_task_files_are_named_and_write_nothing() {
         ETA_HAT,
         &["task.toml"],
     );
+    rejects(
+        |s| s.replace("tf_s = 30.0", "tf_s = 0.0"),
+        ETA_HAT,
+        &["[motion] tf_s = 0"],
+    );
+    rejects(
+        |s| s.replace("n = 1 ", "n = 0 "),
+        ETA_HAT,
+        &["[motion] n = 0"],
+    );
+    rejects(
+        |s| s.replace("tf_s = 30.0", "tf_s = 1e9"),
+        ETA_HAT,
+        &["exceeds the maximum of 1000000 steps"],
+    );
+    rejects(
+        |s| {
+            s.replace("quat_wxyz = [0.3874560731031927, 0.2654610699800615, -0.37163840872581944, 0.8008077827420479]", "quat_wxyz = [0.0, 0.0, 0.0, 0.0]")
+        },
+        ETA_HAT,
+        &["quat_wxyz", "norm 0"],
+    );
+    rejects(
+        |s| {
+            s.replace(
+                "position_m = [2.0166710746921925, 0.13996636886034725, -1.43192511932475]",
+                "position_m = [2.0, 0.1]",
+            )
+        },
+        ETA_HAT,
+        &["[target] position_m has 2 values, expected 3"],
+    );
+    rejects(
+        |s| s.replace("[start]", "[start]\nextra = 1"),
+        ETA_HAT,
+        &["extra"],
+    );
     rejects(id, "1,2,3", &["--eta has 3 values", "2K = 8"]);
     rejects(id, "0,0,0,0,0,0,0,0", &["all zeros"]);
 }
@@ -473,4 +510,63 @@ fn bench_prints_one_json_object() {
         assert!(v[key].as_f64().unwrap() > 0.0, "{key}");
     }
     assert_eq!(v["plan_converged"], 10);
+}
+
+/// URDF problems reach the user through the task file, named, with exit code 2.
+#[test]
+fn bad_robot_files_are_named_through_the_task() {
+    let tmp = tempfile::tempdir().unwrap();
+    let urdf = std::fs::read_to_string(root().join("spec/chaser7.urdf")).unwrap();
+    let cases: [(&str, String, &[&str]); 3] = [
+        (
+            "not XML",
+            "this is not a robot".into(),
+            &["not a readable URDF"],
+        ),
+        (
+            "NaN mass",
+            urdf.replace(r#"<mass value="25"/>"#, r#"<mass value="NaN"/>"#),
+            &["link 'link2'", "not a finite number"],
+        ),
+        (
+            "NaN origin",
+            urdf.replace(
+                r#"<origin xyz="0.113 0 0" rpy="0 0 0"/>"#,
+                r#"<origin xyz="0.113 nan 0" rpy="0 0 0"/>"#,
+            ),
+            &["joint 'j2'", "not a finite number"],
+        ),
+    ];
+    for (what, text, want) in cases {
+        let path = tmp.path().join("robot.urdf");
+        std::fs::write(&path, text).unwrap();
+        let task = std::fs::read_to_string(paper())
+            .unwrap()
+            .replace("\"../chaser7.urdf\"", "\"robot.urdf\"");
+        std::fs::write(tmp.path().join("task.toml"), task).unwrap();
+        let out = tmp.path().join("out");
+        let o = host_sim()
+            .arg("rollout")
+            .arg(tmp.path().join("task.toml"))
+            .args([&format!("--eta={ETA_HAT}"), "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{what}: {err}");
+        for w in want {
+            assert!(err.contains(w), "{what}: {err:?} lacks {w:?}");
+        }
+        assert!(!out.exists());
+    }
+    let o = host_sim()
+        .args(["plan", "/nonexistent/task.toml", "--out"])
+        .arg(tmp.path().join("x"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("/nonexistent/task.toml: cannot read task file")
+    );
 }

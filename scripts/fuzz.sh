@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Runs every fuzz target for a bounded time (default 60 s each) from the seed corpus in
+# fuzz/corpus/ (copied, so the checked-in corpus stays small). Needs cargo-fuzz
+# (`cargo install cargo-fuzz --locked`); RUSTC_BOOTSTRAP=1 lets this stable toolchain use
+# the sanitizer flags cargo-fuzz passes. Exit code non-zero on any crash.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-60}"
+export RUSTC_BOOTSTRAP=1
+for t in rollout task_block parse; do
+  work="target/fuzz-corpus/$t"
+  mkdir -p "$work"
+  cp -n fuzz/corpus/$t/* "$work/" 2>/dev/null || true
+  echo "== fuzz $t for ${seconds}s"
+  cargo fuzz run "$t" "$work" -- -max_total_time="$seconds" -rss_limit_mb=4096 2>&1 \
+    | grep -E "^#[0-9]+.*(DONE|pulse)|ERROR|panicked|SUMMARY|Done [0-9]+ runs" | tail -3
+  test "${PIPESTATUS[0]}" -eq 0
+done

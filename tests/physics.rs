@@ -45,35 +45,6 @@ fn momentum_fd(
     l
 }
 
-/// Attitude of each body's inertial frame (base first) from the naive FK: recovered from
-/// the world inertia would be ambiguous, so recompute the chain.
-fn body_rotations<const N: usize>(
-    d: &RobotDesc<N>,
-    q: &[f64; N],
-    base: &Isometry3<f64>,
-) -> Vec<Matrix3<f64>> {
-    let iso = |o: &reactionless::Origin| {
-        Isometry3::from_parts(
-            nalgebra::Translation3::new(o.xyz[0], o.xyz[1], o.xyz[2]),
-            UnitQuaternion::from_euler_angles(o.rpy[0], o.rpy[1], o.rpy[2]),
-        )
-    };
-    let mut out = vec![*base.rotation.to_rotation_matrix().matrix()];
-    let mut t = *base;
-    for k in 0..N {
-        let j = &d.joints[k];
-        let axis = nalgebra::Unit::new_normalize(Vector3::from(j.axis));
-        t = t
-            * iso(&j.origin)
-            * Isometry3::from_parts(
-                nalgebra::Translation3::identity(),
-                UnitQuaternion::from_axis_angle(&axis, q[k]),
-            );
-        out.push(*t.rotation.to_rotation_matrix().matrix());
-    }
-    out
-}
-
 fn rel_err(got: &Vector3<f64>, want: &Vector3<f64>, scale: f64) -> f64 {
     (got - want).norm() / scale
 }

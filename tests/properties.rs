@@ -10,7 +10,7 @@
 
 mod common;
 use common::*;
-use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use reactionless::{
@@ -129,34 +129,6 @@ fn total_momentum<const N: usize>(d: &RobotDesc<N>, q: &[f64; N], qd: &[f64; N])
         l += spin + orbit;
     }
     (l.norm(), scale)
-}
-
-/// Attitude of each body (base first) for joint values `q` and base pose `base`.
-fn body_rotations<const N: usize>(
-    d: &RobotDesc<N>,
-    q: &[f64; N],
-    base: &Isometry3<f64>,
-) -> Vec<Matrix3<f64>> {
-    let iso = |o: &reactionless::Origin| {
-        Isometry3::from_parts(
-            Translation3::new(o.xyz[0], o.xyz[1], o.xyz[2]),
-            UnitQuaternion::from_euler_angles(o.rpy[0], o.rpy[1], o.rpy[2]),
-        )
-    };
-    let mut out = vec![*base.rotation.to_rotation_matrix().matrix()];
-    let mut t = *base;
-    for k in 0..N {
-        let j = &d.joints[k];
-        let axis = nalgebra::Unit::new_normalize(Vector3::from(j.axis));
-        t = t
-            * iso(&j.origin)
-            * Isometry3::from_parts(
-                Translation3::identity(),
-                UnitQuaternion::from_axis_angle(&axis, q[k]),
-            );
-        out.push(*t.rotation.to_rotation_matrix().matrix());
-    }
-    out
 }
 
 proptest! {

@@ -128,17 +128,20 @@ pub struct PlannerSection {
 }
 
 impl Default for PlannerSection {
+    /// The core's spec §7 reference settings (one source for the defaults).
     fn default() -> Self {
+        let p = PlannerConfig::reference(1);
+        let s = &p.swarm;
         Self {
-            particles: 40,
-            max_iterations: 200,
-            c1: 1.49618,
-            c2: 1.49618,
-            w_max: 0.9,
-            w_min: 0.4,
-            tolerance: 0.05,
-            eta_bound: 5.0,
-            seed: 1,
+            particles: s.particles,
+            max_iterations: s.max_iterations,
+            c1: s.c1,
+            c2: s.c2,
+            w_max: s.w_max,
+            w_min: s.w_min,
+            tolerance: p.tolerance,
+            eta_bound: s.eta_bound,
+            seed: p.seed,
             refine_tolerance: None,
             refine_max_rollouts: 400,
             frame_budget: 3000,
@@ -162,12 +165,14 @@ pub struct StagnationSection {
 }
 
 impl Default for StagnationSection {
+    /// The core's spec §7 reference alarm.
     fn default() -> Self {
+        let s = PlannerConfig::reference(1).swarm.stagnation;
         Self {
-            window: 10,
-            min_relative_improvement: 1e-3,
-            eps1: 0.5,
-            eps2: 0.3,
+            window: s.window,
+            min_relative_improvement: s.min_relative_improvement,
+            eps1: s.eps1,
+            eps2: s.eps2,
         }
     }
 }

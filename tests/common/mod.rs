@@ -214,3 +214,26 @@ impl NaiveFk {
             / m
     }
 }
+
+/// Attitude of each body's link frame (base first) for joint values `q` and base pose
+/// `base`, from the naive URDF chain.
+pub fn body_rotations<const N: usize>(
+    d: &RobotDesc<N>,
+    q: &[f64; N],
+    base: &Isometry3<f64>,
+) -> Vec<Matrix3<f64>> {
+    let mut out = vec![*base.rotation.to_rotation_matrix().matrix()];
+    let mut t = *base;
+    for k in 0..N {
+        let j = &d.joints[k];
+        let axis = Unit::new_normalize(Vector3::from(j.axis));
+        t = t
+            * iso(&j.origin)
+            * Isometry3::from_parts(
+                Translation3::identity(),
+                UnitQuaternion::from_axis_angle(&axis, q[k]),
+            );
+        out.push(*t.rotation.to_rotation_matrix().matrix());
+    }
+    out
+}

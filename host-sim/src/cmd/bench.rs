@@ -5,6 +5,7 @@
 //! `plan_rollouts_median`: over seeds 1..=10 with the task's planner settings. The η timed
 //! for steps and rollouts is the seed-1 plan's.
 
+use crate::cmd::campaign::median;
 use crate::cmd::plan::{HOST_CAPACITY, plan};
 use crate::error::CliError;
 use crate::taskfile::{self, LoadedTask};
@@ -35,16 +36,6 @@ pub struct BenchJson {
     pub plan_converged: u32,
     /// Per seed: (seed, seconds, iterations, rollouts, converged).
     pub plans: Vec<(u64, f64, u32, u32, bool)>,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => v[n / 2],
-        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 /// Runs the subcommand.
@@ -123,11 +114,11 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
     Ok(BenchJson {
         n: N,
         steps_per_rollout: steps,
-        step_ns: median(per_step),
-        rollout_us: median(per_rollout),
-        plan_s_median: median(plans.iter().map(|p| p.1).collect()),
-        plan_iterations_median: median(plans.iter().map(|p| f64::from(p.2)).collect()),
-        plan_rollouts_median: median(plans.iter().map(|p| f64::from(p.3)).collect()),
+        step_ns: median(&per_step),
+        rollout_us: median(&per_rollout),
+        plan_s_median: median(&plans.iter().map(|p| p.1).collect::<Vec<_>>()),
+        plan_iterations_median: median(&plans.iter().map(|p| f64::from(p.2)).collect::<Vec<_>>()),
+        plan_rollouts_median: median(&plans.iter().map(|p| f64::from(p.3)).collect::<Vec<_>>()),
         plan_converged: plans.iter().filter(|p| p.4).count() as u32,
         plans,
     })

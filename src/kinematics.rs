@@ -62,11 +62,38 @@ impl<const N: usize> Frames<N> {
     #[inline(always)]
     #[must_use]
     pub fn new(robot: &Robot<N>, q: &[f64; N]) -> Self {
-        let mut links = [LinkFrame {
-            rot: Mat3::identity(),
-            joint: Vec3::zeros(),
-            com: Vec3::zeros(),
-        }; N];
+        let mut f = Self::IDLE;
+        f.update(robot, q);
+        f
+    }
+
+    /// All zeros, identity attitudes: a placeholder to [`Frames::update`].
+    pub(crate) const IDLE: Self = Self {
+        links: [LinkFrame {
+            rot: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+            joint: Vec3::new(0.0, 0.0, 0.0),
+            com: Vec3::new(0.0, 0.0, 0.0),
+        }; N],
+        base_com: Vec3::new(0.0, 0.0, 0.0),
+        com: Vec3::new(0.0, 0.0, 0.0),
+        ee_position: Vec3::new(0.0, 0.0, 0.0),
+        ee_rotation: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+    };
+
+    /// Recomputes `self` for configuration `q` (rad), in place.
+    #[inline(always)]
+    fn update(&mut self, robot: &Robot<N>, q: &[f64; N]) {
+        let (r_last, p_last) = self.update_chain(robot, q);
+        self.ee_position = p_last + mat_vec(&r_last, &robot.ee_offset);
+        self.ee_rotation = mat_mul(&r_last, &robot.ee_rot);
+    }
+
+    /// Recomputes everything but the end-effector fields (left as they were) for `q`
+    /// (rad), in place, and returns the last joint frame's attitude and position: the
+    /// rollout's hot path, which needs only the links and the centre of mass, reuses one
+    /// `Frames` instead of building and moving a new one every step.
+    #[inline(always)]
+    pub(crate) fn update_chain(&mut self, robot: &Robot<N>, q: &[f64; N]) -> (Mat3, Vec3) {
         // All sincos calls first: a call clobbers every float register, so keeping them out
         // of the recursion below lets the carried frame stay in registers.
         let mut trig = [(0.0, 1.0); N];
@@ -76,7 +103,12 @@ impl<const N: usize> Frames<N> {
         let mut r_prev = robot.root;
         let mut p_prev = Vec3::zeros();
         let mut moment = robot.base_com * robot.base_mass;
-        for ((link, seg), &(s, c)) in links.iter_mut().zip(robot.segments.iter()).zip(trig.iter()) {
+        let items = self
+            .links
+            .iter_mut()
+            .zip(robot.segments.iter())
+            .zip(trig.iter());
+        for ((link, seg), &(s, c)) in items {
             let p = p_prev + mat_vec(&r_prev, &seg.offset);
             let (sb, cb) = seg.twist;
             let r = mul_rz(&mul_rx(&r_prev, sb, cb), s, c);
@@ -88,13 +120,9 @@ impl<const N: usize> Frames<N> {
             r_prev = r;
             p_prev = p;
         }
-        Self {
-            links,
-            base_com: robot.base_com,
-            com: moment / robot.total_mass(),
-            ee_position: p_prev + mat_vec(&r_prev, &robot.ee_offset),
-            ee_rotation: mat_mul(&r_prev, &robot.ee_rot),
-        }
+        self.base_com = robot.base_com;
+        self.com = moment / robot.total_mass();
+        (r_prev, p_prev)
     }
 
     /// End-effector pose in the inertial frame for base attitude `base_wxyz` (unit

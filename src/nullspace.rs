@@ -96,6 +96,39 @@ fn project<const N: usize>(a: &[Vec3; N], f: &Ldlt3, x: &mut [f64; N]) {
     }
 }
 
+/// `cols ← MGS(P·cols)` for `P` the null-space projector of `a`, in place.
+#[inline(always)]
+fn orthonormalize<const N: usize, const K: usize>(
+    a: &[Vec3; N],
+    cols: &mut [[f64; N]; K],
+) -> Result<(), RankLoss> {
+    let f = factor(a)?;
+    for i in 0..K {
+        let Some((done, rest)) = cols.split_at_mut_checked(i) else {
+            break;
+        };
+        let Some(v) = rest.first_mut() else {
+            break;
+        };
+        project(a, &f, v);
+        for u in done.iter() {
+            let c = dot(u, v);
+            for (vi, ui) in v.iter_mut().zip(u.iter()) {
+                *vi -= c * ui;
+            }
+        }
+        let norm = libm::sqrt(dot(v, v));
+        if norm.is_nan() || norm <= PIVOT_TOLERANCE {
+            return Err(RankLoss::Basis);
+        }
+        let inv = 1.0 / norm;
+        for vi in v.iter_mut() {
+            *vi *= inv;
+        }
+    }
+    Ok(())
+}
+
 /// An orthonormal basis of the reaction null space (columns, `K = N − 3` of them).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Basis<const N: usize, const K: usize> {
@@ -133,32 +166,16 @@ impl<const N: usize, const K: usize> Basis<N, K> {
         Self::orthonormalize(a, self.cols)
     }
 
+    /// [`Basis::transported`] in place (the rollout's hot path: no copy of the basis). On
+    /// error the basis is left partly updated; the rollout that owns it has failed.
+    #[inline(always)]
+    pub(crate) fn transport(&mut self, a: &[Vec3; N]) -> Result<(), RankLoss> {
+        orthonormalize(a, &mut self.cols)
+    }
+
     #[inline(always)]
     fn orthonormalize(a: &[Vec3; N], mut cols: [[f64; N]; K]) -> Result<Self, RankLoss> {
-        let f = factor(a)?;
-        for i in 0..K {
-            let Some((done, rest)) = cols.split_at_mut_checked(i) else {
-                break;
-            };
-            let Some(v) = rest.first_mut() else {
-                break;
-            };
-            project(a, &f, v);
-            for u in done.iter() {
-                let c = dot(u, v);
-                for (vi, ui) in v.iter_mut().zip(u.iter()) {
-                    *vi -= c * ui;
-                }
-            }
-            let norm = libm::sqrt(dot(v, v));
-            if norm.is_nan() || norm <= PIVOT_TOLERANCE {
-                return Err(RankLoss::Basis);
-            }
-            let inv = 1.0 / norm;
-            for vi in v.iter_mut() {
-                *vi *= inv;
-            }
-        }
+        orthonormalize(a, &mut cols)?;
         Ok(Self { cols })
     }
 

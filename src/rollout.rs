@@ -217,6 +217,7 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         let steps = motion.steps();
         let dt = motion.dt();
         let end = self.step.saturating_add(budget).min(steps);
+        let mut frames = Frames::IDLE;
         while self.step < end {
             let t = motion.time(self.step);
             let qd = self.basis.combine(&self.law.alpha(t));
@@ -228,10 +229,10 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             if !self.q.iter().all(|v| v.is_finite()) {
                 return Err(Error::NonFiniteState { step: self.step });
             }
-            let frames = Frames::new(robot, &self.q);
-            self.basis = self
-                .basis
-                .transported(&coupling(robot, &frames))
+            // Only links and CoM feed H~bm; the end-effector fields stay unused.
+            let _ = frames.update_chain(robot, &self.q);
+            self.basis
+                .transport(&coupling(robot, &frames))
                 .map_err(rank_error(self.step))?;
         }
         if self.step < steps {

@@ -10,16 +10,23 @@
 //! of the sequence (see [`crate::swarm`] for the draw order).
 //!
 //! **Worst-case work per call**: `budget` integration steps (each one FK, one `H~bm`, one
-//! basis transport), plus bookkeeping:
+//! basis transport, and O(N) for the violation cap below), plus bookkeeping:
 //! - per finished rollout: one end-pose FK and O(K) to start the next rollout;
 //! - per generation boundary: O(T) to select gbest, plus the swarm move (`T·2K` velocity
 //!   updates with `4K` draws per particle, and, after a stagnation alarm, a permutation of
 //!   T);
 //! - per refinement step: a 6×6 Cholesky and O(K) vector work.
 //!
-//! A boundary is crossed at most once per `S` steps of budget (S = steps per rollout). A
-//! candidate rejected before integration (non-finite η) costs one unit of budget, so every
-//! call ends.
+//! A candidate rejected before integration (non-finite η), or abandoned before its first
+//! step, costs one unit of budget, so every call ends.
+//!
+//! **Early abandonment** (exact): each rollout carries a violation cap
+//! ([`Rollout::with_violation_cap`]) above which its result could change no decision: the
+//! particle's personal-best Φ during C-PSO, 0 for a refinement trial, none for a Jacobian
+//! column. Φ of the samples so far never exceeds Φ of the whole rollout, so a rollout that
+//! passes its cap is stopped there; η, f, iterations, rollout counts and every later random
+//! draw are bit-identical to evaluating it to the end (the golden records, blessed before
+//! this existed, replay unchanged). [`Plan::abandoned`] counts them.
 //!
 //! Iterations are counted as in the paper: the initial generation is iteration 0, and
 //! `iterations` is the number of generations after it. A feasible particle with
@@ -117,6 +124,9 @@ pub struct Plan<const N: usize, const K: usize> {
     pub rollouts: u32,
     /// Rollouts spent by C-PSO.
     pub swarm_rollouts: u32,
+    /// Rollouts (of `rollouts`) stopped early because their violation Φ already ruled
+    /// them out ([`Rollout::with_violation_cap`]); they change no decision.
+    pub abandoned: u32,
     /// Stagnation alarms.
     pub stagnation_events: u32,
     /// f when C-PSO stopped.
@@ -212,6 +222,7 @@ pub struct Planner<const N: usize, const K: usize, const P: usize> {
     best: Option<([[f64; 2]; K], Outcome<N>)>,
     rollouts: u32,
     swarm_rollouts: u32,
+    abandoned: u32,
     iterations: u32,
     swarm_f: f64,
     last_error: Option<Error>,
@@ -221,6 +232,15 @@ pub struct Planner<const N: usize, const K: usize, const P: usize> {
 
 fn cost_of<const N: usize>(o: &Outcome<N>) -> Cost {
     Cost { phi: o.phi, f: o.f }
+}
+
+/// How the rollout of one candidate ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Evaluation<const N: usize> {
+    Finished(Outcome<N>),
+    /// Stopped with Φ of its samples so far (rad) above the cap it was given.
+    Abandoned(f64),
+    Failed(Error),
 }
 
 impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
@@ -238,6 +258,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         best: None,
         rollouts: 0,
         swarm_rollouts: 0,
+        abandoned: 0,
         iterations: 0,
         swarm_f: f64::INFINITY,
         last_error: None,
@@ -276,6 +297,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         self.eta = [[0.0; 2]; K];
         self.rollouts = 0;
         self.swarm_rollouts = 0;
+        self.abandoned = 0;
         self.iterations = 0;
         self.swarm_f = f64::INFINITY;
         self.last_error = None;
@@ -315,7 +337,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// }
     /// ```
     ///
-    /// Planning to the end (≈ 0.6 s optimised for the reference task):
+    /// Planning to the end (≈ 0.4 s optimised for the reference task):
     ///
     /// ```no_run
     /// # use reactionless::{Planner, PlannerConfig, Status, reference};
@@ -393,10 +415,10 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 None => {
                     self.eta = self.next_eta();
                     match Rollout::new(&self.task, &self.eta) {
-                        Ok(r) => r,
+                        Ok(r) => r.with_violation_cap(self.violation_cap()),
                         Err(e) => {
                             *left -= 1;
-                            self.absorb(Err(e), observer);
+                            self.absorb(Evaluation::Failed(e), observer);
                             continue;
                         }
                     }
@@ -407,8 +429,17 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
             *left = left.saturating_sub(rollout.step().saturating_sub(before));
             match result {
                 Ok(Progress::Running { .. }) => self.rollout = Some(rollout),
-                Ok(Progress::Done(o)) => self.absorb(Ok(o), observer),
-                Err(e) => self.absorb(Err(e), observer),
+                Ok(Progress::Done(o)) => self.absorb(Evaluation::Finished(o), observer),
+                Ok(Progress::Abandoned { step, phi }) => {
+                    if step == 0 {
+                        // No integration step was spent: charge one unit, as for a
+                        // rejected candidate, so every call ends. (Not expected: pbest's
+                        // Φ includes the start, and refinement starts feasible.)
+                        *left = left.saturating_sub(1);
+                    }
+                    self.absorb(Evaluation::Abandoned(phi), observer);
+                }
+                Err(e) => self.absorb(Evaluation::Failed(e), observer),
             }
         }
         match self.phase {
@@ -439,6 +470,26 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
     }
 
+    /// The Φ above which the rollout of the next candidate cannot change any decision.
+    ///
+    /// - A swarm particle: its personal best's Φ. A finished `Φ > pbest.Φ` never dominates
+    ///   pbest (feasible beats infeasible; among infeasible, smaller Φ first), so pbest
+    ///   stays; nor can it dominate the planner's best (which dominates or equals every
+    ///   pbest), nor meet σ_e (which needs Φ = 0). A particle without a finished
+    ///   evaluation has pbest Φ = ∞ and is never cut short.
+    /// - A refinement trial: 0 (only `Φ = 0` is accepted). Jacobian columns: ∞ (every
+    ///   column is used).
+    fn violation_cap(&self) -> f64 {
+        match &self.phase {
+            Phase::Swarm { particle, .. } => self
+                .swarm
+                .particle(*particle)
+                .map_or(f64::INFINITY, |p| p.best_cost.phi),
+            Phase::Refine(r) if r.at_trial() => 0.0,
+            _ => f64::INFINITY,
+        }
+    }
+
     fn next_eta(&self) -> [[f64; 2]; K] {
         match &self.phase {
             Phase::Swarm { particle, .. } => self
@@ -462,6 +513,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
             iterations: self.iterations,
             rollouts: self.rollouts,
             swarm_rollouts: self.swarm_rollouts,
+            abandoned: self.abandoned,
             stagnation_events: self.swarm.stagnation_events(),
             swarm_f: self.swarm_f,
             refine,
@@ -469,10 +521,12 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     }
 
     /// Takes the result of the rollout of `self.eta`.
-    fn absorb<O: Observer>(&mut self, result: Result<Outcome<N>, Error>, observer: &mut O) {
+    fn absorb<O: Observer>(&mut self, result: Evaluation<N>, observer: &mut O) {
         self.rollouts += 1;
-        if let Err(e) = &result {
-            self.last_error = Some(*e);
+        match result {
+            Evaluation::Failed(e) => self.last_error = Some(e),
+            Evaluation::Abandoned(_) => self.abandoned += 1,
+            Evaluation::Finished(_) => {}
         }
         match self.phase {
             Phase::Swarm {
@@ -481,7 +535,11 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
             } => self.absorb_swarm(iteration, particle, result, observer),
             Phase::Refine(mut r) => {
                 let trial = r.at_trial();
-                let next = r.absorb(result.as_ref().ok());
+                let outcome = match &result {
+                    Evaluation::Finished(o) => Some(o),
+                    Evaluation::Abandoned(_) | Evaluation::Failed(_) => None,
+                };
+                let next = r.absorb(outcome);
                 let (eta, best) = r.best();
                 if trial {
                     observer.event(&Event::RefineTrial {
@@ -504,13 +562,21 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         &mut self,
         iteration: u32,
         particle: usize,
-        result: Result<Outcome<N>, Error>,
+        result: Evaluation<N>,
         observer: &mut O,
     ) {
         self.swarm_rollouts += 1;
-        let cost = result.as_ref().map_or(Cost::FAILED, cost_of);
+        let cost = match &result {
+            Evaluation::Finished(o) => cost_of(o),
+            // A lower bound: Φ only grows along the rest of the rollout.
+            Evaluation::Abandoned(phi) => Cost {
+                phi: *phi,
+                f: f64::INFINITY,
+            },
+            Evaluation::Failed(_) => Cost::FAILED,
+        };
         self.swarm.record(particle, cost);
-        if let Ok(o) = &result {
+        if let Evaluation::Finished(o) = &result {
             let better = self
                 .best
                 .as_ref()

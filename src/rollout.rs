@@ -92,12 +92,21 @@ pub enum Progress<const N: usize> {
     },
     /// Finished.
     Done(Outcome<N>),
+    /// Stopped early: the violation Φ of the samples so far already exceeds the cap set
+    /// with [`Rollout::with_violation_cap`], so the finished rollout's Φ would too.
+    Abandoned {
+        /// Integration steps completed when it stopped.
+        step: u32,
+        /// Φ of the samples `0..=step` (rad), a lower bound of the full rollout's Φ.
+        phi: f64,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase<const N: usize> {
     Running,
     Done(Outcome<N>),
+    Abandoned { step: u32, phi: f64 },
     Failed(Error),
 }
 
@@ -112,6 +121,8 @@ pub struct Rollout<const N: usize, const K: usize> {
     q_min: [f64; N],
     q_max: [f64; N],
     max_abs_qd: f64,
+    /// Abandon once Φ of the samples so far exceeds this (rad); `∞` never abandons.
+    phi_cap: f64,
     phase: Phase<N>,
 }
 
@@ -131,8 +142,24 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             q_min: q,
             q_max: q,
             max_abs_qd: 0.0,
+            phi_cap: f64::INFINITY,
             phase: Phase::Running,
         })
+    }
+
+    /// Makes the rollout stop with [`Progress::Abandoned`] as soon as the constraint
+    /// violation Φ (eq. 23, rad) of the samples so far exceeds `cap`.
+    ///
+    /// Φ of a prefix never exceeds Φ of the whole rollout (the extrema only widen, every
+    /// term is non-decreasing in them, and the sum is taken in a fixed order, so this holds
+    /// after rounding too). An abandoned rollout would therefore have finished with
+    /// `Φ > cap`: a caller that discards such results (the planner: a particle whose
+    /// personal best has `Φ ≤ cap`, a refinement trial that must keep `Φ = 0`) gets the same
+    /// decisions for less work. A NaN or infinite cap never abandons.
+    #[must_use]
+    pub fn with_violation_cap(mut self, cap: f64) -> Self {
+        self.phi_cap = if cap.is_nan() { f64::INFINITY } else { cap };
+        self
     }
 
     /// The time law in use.
@@ -162,7 +189,10 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     /// Advances by at most `budget` integration steps, handing each sample to `sink`.
     ///
     /// Returns [`Progress::Running`] while steps remain and [`Progress::Done`] once the
-    /// last step is done (again on every later call, without further work).
+    /// last step is done (again on every later call, without further work). With a
+    /// violation cap it may instead return [`Progress::Abandoned`] (again on every later
+    /// call); the final sample at `t_f` is not checked against the cap, so a finished
+    /// rollout can still have `Φ > cap`.
     ///
     /// # Errors
     /// [`Error::RankLoss`] or [`Error::NonFiniteState`] at the step where it happened; the
@@ -189,13 +219,18 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     ) -> Result<Progress<N>, Error> {
         match self.phase {
             Phase::Done(o) => return Ok(Progress::Done(o)),
+            Phase::Abandoned { step, phi } => return Ok(Progress::Abandoned { step, phi }),
             Phase::Failed(e) => return Err(e),
             Phase::Running => {}
         }
         match self.run(task, budget, sink) {
             Ok(p) => {
-                if let Progress::Done(o) = p {
-                    self.phase = Phase::Done(o);
+                match p {
+                    Progress::Done(o) => self.phase = Phase::Done(o),
+                    Progress::Abandoned { step, phi } => {
+                        self.phase = Phase::Abandoned { step, phi };
+                    }
+                    Progress::Running { .. } => {}
                 }
                 Ok(p)
             }
@@ -222,6 +257,15 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             let t = motion.time(self.step);
             let qd = self.basis.combine(&self.law.alpha(t));
             self.record(t, &qd, sink);
+            if self.phi_cap < f64::INFINITY {
+                let phi = robot.violation(&self.q_min, &self.q_max);
+                if phi > self.phi_cap {
+                    return Ok(Progress::Abandoned {
+                        step: self.step,
+                        phi,
+                    });
+                }
+            }
             for (q, v) in self.q.iter_mut().zip(qd.iter()) {
                 *q += dt * v;
             }
@@ -296,8 +340,10 @@ impl<const N: usize, const K: usize> Task<N, K> {
         let mut r = Rollout::new(self, eta)?;
         match r.advance(self, self.motion().steps(), sink)? {
             Progress::Done(o) => Ok(o),
-            // Unreachable: the budget covers every step.
-            Progress::Running { step, .. } => Err(Error::NonFiniteState { step }),
+            // Unreachable: the budget covers every step and there is no violation cap.
+            Progress::Running { step, .. } | Progress::Abandoned { step, .. } => {
+                Err(Error::NonFiniteState { step })
+            }
         }
     }
 }

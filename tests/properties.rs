@@ -185,8 +185,53 @@ proptest! {
                     prop_assert!(o.max_abs_qd <= task.robot().qd_max());
                 }
                 Ok(Progress::Running { .. }) => prop_assert!(false, "unlimited budget must finish"),
+                Ok(Progress::Abandoned { .. }) => prop_assert!(false, "no cap: never abandoned"),
                 Err(e) => prop_assert!(matches!(e, Error::RankLoss { .. } | Error::NonFiniteState { .. }), "{:?}", e),
             },
+        }
+    }
+
+    /// The violation cap is exact: a capped rollout is abandoned only if the full rollout
+    /// ends with Φ above the cap (and its partial Φ is a lower bound of it); otherwise it
+    /// finishes bit-identical to the uncapped rollout.
+    #[test]
+    fn a_violation_cap_abandons_only_rollouts_that_would_exceed_it(
+        eta in prop::array::uniform8(-8.0f64..8.0),
+        cap in prop_oneof![Just(0.0), 0.0f64..0.5],
+        budget in 1u32..4000,
+    ) {
+        // The reference task (30 s): many random η cross a joint limit somewhere.
+        let task = reactionless::reference::paper_task().unwrap();
+        let pairs = [[eta[0], eta[1]], [eta[2], eta[3]], [eta[4], eta[5]], [eta[6], eta[7]]];
+        let Ok(full) = task.rollout(&pairs, &mut ()) else { return Ok(()) };
+        let mut r = Rollout::new(&task, &pairs).unwrap().with_violation_cap(cap);
+        let mut seen = Vec::new();
+        let mut sink = |s: &reactionless::Sample<7>| seen.push(*s);
+        let end = loop {
+            match r.advance(&task, budget, &mut sink).unwrap() {
+                Progress::Running { .. } => {}
+                p => break p,
+            }
+        };
+        match end {
+            Progress::Abandoned { step, phi } => {
+                prop_assert!(phi > cap && phi <= full.phi, "{} {} {}", phi, cap, full.phi);
+                prop_assert_eq!(seen.len() as u32, step + 1);
+                prop_assert_eq!(r.advance(&task, budget, &mut ()).unwrap(), end);
+            }
+            Progress::Done(o) => {
+                prop_assert_eq!(o, full);
+                // Only the final sample (not checked against the cap) may push Φ over it.
+                let (mut lo, mut hi) = (*task.start(), *task.start());
+                for s in &seen[..seen.len() - 1] {
+                    for j in 0..7 {
+                        lo[j] = lo[j].min(s.q[j]);
+                        hi[j] = hi[j].max(s.q[j]);
+                    }
+                }
+                prop_assert!(task.robot().violation(&lo, &hi) <= cap);
+            }
+            Progress::Running { .. } => unreachable!(),
         }
     }
 }

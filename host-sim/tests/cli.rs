@@ -377,12 +377,26 @@ fn plan_converges_writes_everything_and_refines() {
         "orientation_error_deg",
         "iterations",
         "rollouts",
+        "abandoned_rollouts",
+        "integration_steps",
         "stagnation_events",
         "seed",
         "best_f_history",
     ] {
         assert!(p.get(key).is_some(), "plan.json lacks {key}");
     }
+    // Finished rollouts cost 3000 steps each, abandoned ones fewer (seed 2 abandons some).
+    let rollouts = p["rollouts"].as_u64().unwrap();
+    let abandoned = p["abandoned_rollouts"].as_u64().unwrap();
+    let steps = p["integration_steps"].as_u64().unwrap();
+    assert!(
+        abandoned > 0 && abandoned < rollouts,
+        "{abandoned} of {rollouts}"
+    );
+    assert!(
+        steps > (rollouts - abandoned) * 3000 && steps < rollouts * 3000,
+        "{steps}"
+    );
     assert_eq!(p["eta"].as_array().unwrap().len(), 8);
     assert!(p["f"].as_f64().unwrap() <= 1e-6);
     assert_eq!(p["phi"].as_f64().unwrap(), 0.0);

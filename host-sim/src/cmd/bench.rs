@@ -107,7 +107,7 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
             let dt = t.elapsed().as_secs_f64();
             match p {
                 Progress::Running { .. } => per_step.push(dt * 1e9 / 100.0),
-                Progress::Done(_) => break,
+                Progress::Done(_) | Progress::Abandoned { .. } => break,
             }
         }
     }

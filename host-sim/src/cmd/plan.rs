@@ -45,6 +45,10 @@ pub struct PlanJson {
     pub rollouts: u32,
     /// Rollouts of C-PSO.
     pub swarm_rollouts: u32,
+    /// Rollouts stopped early because their joint-limit violation already ruled them out.
+    pub abandoned_rollouts: u32,
+    /// Integration steps spent (the planner's budget unit); not part of any record.
+    pub integration_steps: u64,
     /// Stagnation alarms.
     pub stagnation_events: u32,
     /// Seed used.
@@ -105,6 +109,8 @@ pub struct Finished<const N: usize, const K: usize> {
     pub refine_history: Vec<f64>,
     /// Wall time (s).
     pub seconds: f64,
+    /// Integration steps spent ([`Planner::spent`]).
+    pub steps: u64,
 }
 
 /// Plans `lt` with `config`, with a progress bar on a terminal.
@@ -159,6 +165,7 @@ pub fn plan<const N: usize, const K: usize>(
         history,
         refine_history,
         seconds: start.elapsed().as_secs_f64(),
+        steps: planner.spent(),
     })
 }
 
@@ -223,6 +230,8 @@ fn run_n<const N: usize, const K: usize>(
         iterations: p.iterations,
         rollouts: p.rollouts,
         swarm_rollouts: p.swarm_rollouts,
+        abandoned_rollouts: p.abandoned,
+        integration_steps: done.steps,
         stagnation_events: p.stagnation_events,
         seed: config.seed,
         best_f_history: done.history,

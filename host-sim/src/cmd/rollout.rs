@@ -168,7 +168,9 @@ pub fn write_rollout<const N: usize, const K: usize>(
     };
     let outcome = match rollout.advance(task, u32::MAX, &mut sink) {
         Ok(Progress::Done(o)) => o,
-        Ok(Progress::Running { .. }) => return Err(CliError::internal("rollout did not finish")),
+        Ok(Progress::Running { .. } | Progress::Abandoned { .. }) => {
+            return Err(CliError::internal("rollout did not finish"));
+        }
         Err(e) => return Err(CliError::failed(format!("rollout failed: {e}"))),
     };
     if let Some(c) = csv {

@@ -12,7 +12,14 @@ for t in rollout task_block parse; do
   mkdir -p "$work"
   cp -n fuzz/corpus/$t/* "$work/" 2>/dev/null || true
   echo "== fuzz $t for ${seconds}s"
-  cargo fuzz run "$t" "$work" -- -max_total_time="$seconds" -rss_limit_mb=4096 2>&1 \
-    | grep -E "^#[0-9]+.*(DONE|pulse)|ERROR|panicked|SUMMARY|Done [0-9]+ runs" | tail -3
-  test "${PIPESTATUS[0]}" -eq 0
+  log="target/fuzz-$t.log"
+  status=0
+  cargo fuzz run "$t" "$work" -- -max_total_time="$seconds" -rss_limit_mb=4096 >"$log" 2>&1 \
+    || status=$?
+  grep -E "^#[0-9]+.*(DONE|pulse)|ERROR|panicked|SUMMARY|Done [0-9]+ runs" "$log" | tail -3 || true
+  if [ "$status" -ne 0 ]; then
+    # A build error or a crash: show what happened, not just that it did.
+    tail -n 40 "$log"
+    exit "$status"
+  fi
 done

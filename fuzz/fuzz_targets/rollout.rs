@@ -1,6 +1,7 @@
 //! Fuzz target: a rollout of the reference robot with an arbitrary η (any bit patterns),
-//! an arbitrary budget slicing and a perturbed start. Must never panic; a finished rollout
-//! has finite outputs and respects |q̇| ≤ q̇_max; failures are typed errors.
+//! an arbitrary budget slicing, a perturbed start and an optional violation cap. Must never
+//! panic; a finished rollout has finite outputs and respects |q̇| ≤ q̇_max; an abandoned one
+//! reports a finite Φ above its cap; failures are typed errors.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -40,8 +41,13 @@ fuzz_target!(|data: &[u8]| {
         Ok(t) => t,
         Err(_) => return,
     };
+    // Odd byte 67: a violation cap of (byte / 1000) rad.
+    let cap = match data.get(67).copied().unwrap_or(0) {
+        b if b % 2 == 1 => f64::from(b) * 1e-3,
+        _ => f64::INFINITY,
+    };
     let mut r = match Rollout::new(&task, &eta) {
-        Ok(r) => r,
+        Ok(r) => r.with_violation_cap(cap),
         Err(e) => {
             assert!(
                 matches!(e, Error::NotFinite(_) | Error::EtaZero | Error::EtaTooLarge),
@@ -53,6 +59,10 @@ fuzz_target!(|data: &[u8]| {
     loop {
         match r.advance(&task, budget, &mut ()) {
             Ok(Progress::Running { .. }) => {}
+            Ok(Progress::Abandoned { phi, .. }) => {
+                assert!(phi.is_finite() && phi > cap, "{phi} {cap}");
+                return;
+            }
             Ok(Progress::Done(o)) => {
                 for v in o.q_final.iter().chain(&o.end_pose.position).chain(&[
                     o.f,

@@ -30,12 +30,11 @@
 //! | 4 | frame budget (u32, integration steps per call of `step`) |
 //! | 4 | CRC-32 of everything above |
 
+use crate::config::{PlannerConfig, StagnationConfig};
 use crate::error::{BlockFault, Error};
 use crate::geometry::Pose;
 use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
-use crate::planner::{Planner, PlannerConfig};
-use crate::refine::RefineConfig;
-use crate::swarm::{StagnationConfig, SwarmConfig};
+use crate::planner::Planner;
 use crate::trajectory::Motion;
 
 /// The block's magic bytes.
@@ -83,10 +82,9 @@ pub struct TaskBlock<const N: usize> {
     pub dt_s: f64,
     /// Time-law degree.
     pub n: u32,
-    /// Planner settings.
+    /// Planner settings (with the frame budget: integration steps the flight software
+    /// gives the planner per frame).
     pub planner: PlannerConfig,
-    /// Integration steps the flight software gives the planner per frame.
-    pub frame_budget: u32,
 }
 
 impl<const N: usize> TaskBlock<N> {
@@ -253,25 +251,24 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     w.f64(block.dt_s);
     w.u32(block.n);
     let p = &block.planner;
-    let s = &p.swarm;
-    w.u32(s.particles);
-    w.u32(s.max_iterations);
-    w.f64s(&[s.c1, s.c2, s.w_max, s.w_min, p.tolerance, s.eta_bound]);
+    w.u32(p.particles);
+    w.u32(p.max_iterations);
+    w.f64s(&[p.c1, p.c2, p.w_max, p.w_min, p.tolerance, p.eta_bound]);
     w.u64(p.seed);
-    w.u32(s.stagnation.window);
+    w.u32(p.stagnation.window);
     w.f64s(&[
-        s.stagnation.min_relative_improvement,
-        s.stagnation.eps1,
-        s.stagnation.eps2,
+        p.stagnation.min_relative_improvement,
+        p.stagnation.eps1,
+        p.stagnation.eps2,
     ]);
-    let (flag, tol, rollouts) = match p.refine {
-        Some(r) => (1, r.tolerance, r.max_rollouts),
-        None => (0, 0.0, 0),
+    let (flag, tol) = match p.refine_tolerance {
+        Some(t) => (1, t),
+        None => (0, 0.0),
     };
     w.u32(flag);
     w.f64(tol);
-    w.u32(rollouts);
-    w.u32(block.frame_budget);
+    w.u32(p.refine_max_rollouts);
+    w.u32(p.frame_budget);
     let crc = crc32(w.out.get(..w.at).unwrap_or(&[]));
     w.u32(crc);
     if w.overflow || w.at != len {
@@ -358,12 +355,9 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let refine_tolerance = r.f64()?;
     let refine_rollouts = r.u32()?;
     let frame_budget = r.u32()?;
-    let refine = match flag {
+    let refine_tolerance = match flag {
         0 => None,
-        1 => Some(RefineConfig {
-            tolerance: refine_tolerance,
-            max_rollouts: refine_rollouts,
-        }),
+        1 => Some(refine_tolerance),
         _ => return Err(Error::Block(BlockFault::Field)),
     };
     Ok(TaskBlock {
@@ -379,26 +373,25 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         dt_s,
         n,
         planner: PlannerConfig {
-            swarm: SwarmConfig {
-                particles,
-                max_iterations,
-                c1,
-                c2,
-                w_max,
-                w_min,
-                eta_bound,
-                stagnation: StagnationConfig {
-                    window,
-                    min_relative_improvement,
-                    eps1,
-                    eps2,
-                },
-            },
+            particles,
+            max_iterations,
+            c1,
+            c2,
+            w_max,
+            w_min,
             tolerance,
+            eta_bound,
             seed,
-            refine,
+            refine_tolerance,
+            refine_max_rollouts: refine_rollouts,
+            frame_budget,
+            stagnation: StagnationConfig {
+                window,
+                min_relative_improvement,
+                eps1,
+                eps2,
+            },
         },
-        frame_budget,
     })
 }
 
@@ -411,10 +404,8 @@ mod tests {
 
     fn block() -> TaskBlock<7> {
         let mut planner = PlannerConfig::reference(42);
-        planner.refine = Some(RefineConfig {
-            tolerance: 1e-6,
-            max_rollouts: 300,
-        });
+        planner.refine_tolerance = Some(1e-6);
+        planner.refine_max_rollouts = 300;
         TaskBlock {
             robot: CHASER7,
             q0: Q0_DEG.map(f64::to_radians),
@@ -423,7 +414,6 @@ mod tests {
             dt_s: 0.01,
             n: 1,
             planner,
-            frame_budget: 3000,
         }
     }
 

@@ -50,8 +50,6 @@ pub enum Param {
     FinalTime,
     /// Integration step `dt` (s).
     TimeStep,
-    /// Polynomial degree `n` of the time law.
-    Degree,
     /// Component `i` (1-based) of the parameter vector η.
     Eta(u8),
     /// Swarm size T.
@@ -82,6 +80,55 @@ pub enum Param {
     RefineTolerance,
     /// Refinement budget (rollouts).
     RefineRollouts,
+    /// Integration steps per [`crate::Planner::step`] call of the flight driver.
+    FrameBudget,
+}
+
+impl Param {
+    /// The task-file key of this parameter as `table.key` (`"planner.particles"`,
+    /// `"planner.stagnation.window"`, `"motion.tf_s"`), or `None` for what a task file does
+    /// not hold directly (the robot's URDF values, η).
+    ///
+    /// ```
+    /// use reactionless::Param;
+    /// assert_eq!(Param::StagnationWindow.key(), Some("planner.stagnation.window"));
+    /// assert_eq!(Param::Eta(1).key(), None);
+    /// ```
+    #[must_use]
+    pub const fn key(&self) -> Option<&'static str> {
+        Some(match self {
+            Param::Start(_) => "start.q_deg",
+            Param::TargetPosition => "target.position_m",
+            Param::TargetAttitude => "target.quat_wxyz",
+            Param::FinalTime => "motion.tf_s",
+            Param::TimeStep => "motion.dt_s",
+            Param::Particles => "planner.particles",
+            Param::MaxIterations => "planner.max_iterations",
+            Param::C1 => "planner.c1",
+            Param::C2 => "planner.c2",
+            Param::WMax => "planner.w_max",
+            Param::WMin => "planner.w_min",
+            Param::Tolerance => "planner.tolerance",
+            Param::EtaBound => "planner.eta_bound",
+            Param::StagnationWindow => "planner.stagnation.window",
+            Param::MinImprovement => "planner.stagnation.min_relative_improvement",
+            Param::Eps1 => "planner.stagnation.eps1",
+            Param::Eps2 => "planner.stagnation.eps2",
+            Param::RefineTolerance => "planner.refine_tolerance",
+            Param::RefineRollouts => "planner.refine_max_rollouts",
+            Param::FrameBudget => "planner.frame_budget",
+            Param::Mass(_)
+            | Param::CenterOfMass(_)
+            | Param::Inertia(_)
+            | Param::JointOrigin(_)
+            | Param::JointAxis(_)
+            | Param::LowerLimit(_)
+            | Param::UpperLimit(_)
+            | Param::VelocityLimit(_)
+            | Param::EndEffector
+            | Param::Eta(_) => return None,
+        })
+    }
 }
 
 /// Why a null-space computation lost rank.
@@ -185,6 +232,18 @@ pub enum Error {
     NotInitialized,
 }
 
+impl Error {
+    /// The parameter the error names, if it names one.
+    #[must_use]
+    pub const fn param(&self) -> Option<Param> {
+        match self {
+            Error::NotFinite(p) | Error::NotPositive(p) | Error::Negative(p) => Some(*p),
+            Error::CapacityExceeded { param, .. } => Some(*param),
+            _ => None,
+        }
+    }
+}
+
 impl fmt::Display for Body {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -211,7 +270,6 @@ impl fmt::Display for Param {
             Param::TargetAttitude => f.write_str("target quaternion"),
             Param::FinalTime => f.write_str("motion duration t_f"),
             Param::TimeStep => f.write_str("time step dt"),
-            Param::Degree => f.write_str("time-law degree n"),
             Param::Eta(i) => write!(f, "eta component {i}"),
             Param::Particles => f.write_str("particle count"),
             Param::MaxIterations => f.write_str("max_iterations"),
@@ -227,6 +285,7 @@ impl fmt::Display for Param {
             Param::Eps2 => f.write_str("eps2"),
             Param::RefineTolerance => f.write_str("refine_tolerance"),
             Param::RefineRollouts => f.write_str("refine_max_rollouts"),
+            Param::FrameBudget => f.write_str("frame_budget"),
         }
     }
 }

@@ -14,9 +14,10 @@
 //! [`Momentum`], [`Basis`]) are in the base frame.
 //!
 //! Data flows one way: [`model`] → [`kinematics`] → [`momentum`] → [`nullspace`] →
-//! [`trajectory`] / [`task`] → [`rollout`] → [`swarm`] / [`refine`] → [`planner`], and
-//! [`execute`] streams a plan's setpoints; [`truth`] checks a trajectory, [`random`] is the
-//! only source of randomness, [`reference`] holds the reference scenario of spec §8.
+//! [`trajectory`] / [`task`] → [`rollout`] → [`optimizer`] ([`cpso`] over [`swarm`],
+//! [`refine`]) → [`planner`], and [`execute`] streams a plan's setpoints; [`config`] holds
+//! every planner setting, [`truth`] checks a trajectory, [`random`] is the only source of
+//! randomness, [`reference`] holds the reference scenario of spec §8.
 //!
 //! ```
 //! use reactionless::{CHASER7, Motion, Pose, Robot, Task};
@@ -48,14 +49,18 @@
 extern crate std;
 
 pub mod block;
+pub mod config;
+pub mod cpso;
 pub mod digest;
 pub mod error;
 pub mod execute;
 pub mod geometry;
+pub mod integrator;
 pub mod kinematics;
 pub mod model;
 pub mod momentum;
 pub mod nullspace;
+pub mod optimizer;
 pub mod planner;
 pub mod random;
 pub mod reference;
@@ -66,18 +71,21 @@ pub mod task;
 pub mod trajectory;
 pub mod truth;
 
+pub use config::{MAX_WINDOW, PlannerConfig, RefineConfig, StagnationConfig};
+pub use cpso::Cpso;
 pub use digest::TrajectoryDigest;
 pub use error::{BlockFault, Body, Error, Param, RankLoss};
 pub use execute::Setpoints;
 pub use geometry::{Pose, PoseError, Sym3};
-pub use kinematics::{Frames, LinkFrame};
+pub use kinematics::{Frames, IDENTITY_WXYZ, LinkFrame};
 pub use model::{BodyDesc, CHASER7, Inertia, JointDesc, Origin, Robot, RobotDesc, UNIT_TOLERANCE};
 pub use momentum::{Momentum, generalized_jacobian};
 pub use nullspace::{Basis, PIVOT_TOLERANCE, RANK_TOLERANCE, conditioning};
-pub use planner::{Event, Observer, Plan, Planner, PlannerConfig, Running, Stage, Status};
-pub use refine::{RefineConfig, RefineReport, RefineStop};
+pub use optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
+pub use planner::{Plan, Planner, Running, Stage, Status};
+pub use refine::{RefineReport, RefineStop};
 pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
-pub use swarm::{Cost, MAX_WINDOW, StagnationConfig, Swarm, SwarmConfig};
+pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
 pub use truth::TruthModel;

@@ -1,9 +1,9 @@
-//! The planner that flies: C-PSO (spec §7) followed by optional refinement, as one
-//! resumable, budgeted, deterministic state machine.
+//! The planner that flies: a search (C-PSO, spec §7) followed by optional refinement, as
+//! one resumable, budgeted, deterministic state machine.
 //!
-//! Owns [`Planner`], its configuration [`PlannerConfig`], and what it reports ([`Status`],
-//! [`Plan`], [`Event`]). The planner evaluates one η at a time with a [`Rollout`] it keeps
-//! between calls. [`Planner::step`] performs at most `budget` integration steps, so a
+//! Owns [`Planner`] and what it reports ([`Status`], [`Plan`], [`Running`]). The planner
+//! drives [`Optimizer`]s: it asks each for a candidate η, evaluates it with a [`Rollout`]
+//! it keeps between calls, and tells the optimizer how it ended. [`Planner::step`] performs at most `budget` integration steps, so a
 //! flight scheduler can give it a fixed slice of every frame. Driving it with budget 1 per
 //! call gives the same bits as driving it with an unlimited budget: the state carried
 //! between calls is exactly the loop state, and every random draw happens at a fixed point
@@ -20,10 +20,11 @@
 //! A candidate rejected before integration (non-finite η), or abandoned before its first
 //! step, costs one unit of budget, so every call ends.
 //!
-//! **Early abandonment** (exact): each rollout carries a violation cap
-//! ([`Rollout::with_violation_cap`]) above which its result could change no decision: the
-//! particle's personal-best Φ during C-PSO, 0 for a refinement trial, none for a Jacobian
-//! column. Φ of the samples so far never exceeds Φ of the whole rollout, so a rollout that
+//! **Early abandonment** (exact): each rollout carries the violation cap of its
+//! [`crate::optimizer::Candidate`] ([`Rollout::with_violation_cap`]), above which its result
+//! could change no decision: the particle's personal-best Φ during C-PSO, 0 for a
+//! refinement trial, none for a Jacobian column. A cap is applied only once a finished
+//! rollout is on record, so the planner always has a plan to report when the search ends. Φ of the samples so far never exceeds Φ of the whole rollout, so a rollout that
 //! passes its cap is stopped there; η, f, iterations, rollout counts and every later random
 //! draw are bit-identical to evaluating it to the end (the golden records, blessed before
 //! this existed, replay unchanged). [`Plan::abandoned`] counts them.
@@ -32,64 +33,22 @@
 //! `iterations` is the number of generations after it. A feasible particle with
 //! `f ≤ tolerance` stops C-PSO at once, even in the middle of a generation.
 
-use crate::error::{Error, Param};
+use crate::config::PlannerConfig;
+use crate::cpso::Cpso;
+use crate::error::Error;
+use crate::optimizer::{Evaluation, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
-use crate::refine::{Next, RefineConfig, RefineReport, Refiner};
+use crate::refine::{RefineReport, Refiner};
 use crate::rollout::{Outcome, Progress, Rollout};
-use crate::swarm::{Cost, Swarm, SwarmConfig};
+use crate::swarm::{Cost, Swarm};
 use crate::task::Task;
-
-/// Everything the planner needs besides the task.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct PlannerConfig {
-    /// The swarm.
-    pub swarm: SwarmConfig,
-    /// σ_e: success when a feasible particle has `f ≤ tolerance` (> 0).
-    pub tolerance: f64,
-    /// Seed of the random stream.
-    pub seed: u64,
-    /// Refinement after C-PSO succeeds (`None`: none).
-    pub refine: Option<RefineConfig>,
-}
-
-impl PlannerConfig {
-    /// The spec §7 settings for the reference task: 40 particles, σ_e = 0.05, no refinement.
-    #[must_use]
-    pub const fn reference(seed: u64) -> Self {
-        Self {
-            swarm: SwarmConfig::reference(40),
-            tolerance: 0.05,
-            seed,
-            refine: None,
-        }
-    }
-
-    /// Checks every setting against a capacity of `capacity` particles.
-    ///
-    /// # Errors
-    /// The first bad setting, named.
-    pub fn validate(&self, capacity: usize) -> Result<(), Error> {
-        self.swarm.validate(capacity)?;
-        if !self.tolerance.is_finite() {
-            return Err(Error::NotFinite(Param::Tolerance));
-        }
-        if self.tolerance <= 0.0 {
-            return Err(Error::NotPositive(Param::Tolerance));
-        }
-        if let Some(r) = &self.refine {
-            r.validate()?;
-        }
-        Ok(())
-    }
-}
 
 /// Which stage the planner is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Stage {
-    /// C-PSO.
-    Swarm,
+    /// The search for a feasible η within σ_e (C-PSO).
+    Search,
     /// Levenberg–Marquardt refinement.
     Refine,
 }
@@ -100,9 +59,10 @@ pub enum Stage {
 pub struct Running {
     /// Current stage.
     pub stage: Stage,
-    /// Current generation (0 = initial).
+    /// Current generation of C-PSO (0 = initial); during refinement, the one it
+    /// succeeded in.
     pub iteration: u32,
-    /// Particle being evaluated.
+    /// Particle being evaluated (0 during refinement).
     pub particle: u32,
     /// Rollouts finished so far.
     pub rollouts: u32,
@@ -110,10 +70,15 @@ pub struct Running {
     pub best: Cost,
 }
 
-/// A plan: the chosen η and the rollout that was evaluated for it.
+/// A finished plan: the chosen η, the rollout that was evaluated for it, and how the
+/// planner got there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Plan<const N: usize, const K: usize> {
+    /// Why planning stopped: [`Stop::Converged`] (a feasible η with `f ≤ σ_e`, refined if
+    /// configured) or [`Stop::Exhausted`] (m_max generations without success: the best
+    /// feasible η found, or the least violating one if none is feasible).
+    pub stop: Stop,
     /// η as pairs `(a_i, b_i)`.
     pub eta: [[f64; 2]; K],
     /// The rollout of `eta`: final configuration, extrema, Φ, end pose, error, f.
@@ -135,75 +100,56 @@ pub struct Plan<const N: usize, const K: usize> {
     pub refine: Option<RefineReport>,
 }
 
+impl<const N: usize, const K: usize> Plan<N, K> {
+    /// `true` if the plan met its tolerance ([`Stop::Converged`]).
+    #[must_use]
+    pub fn converged(&self) -> bool {
+        self.stop == Stop::Converged
+    }
+}
+
 /// What [`Planner::step`] returns.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Status<const N: usize, const K: usize> {
     /// Budget spent, more to do.
     Running(Running),
-    /// A feasible η with `f ≤ tolerance` (refined if configured).
-    Converged(Plan<N, K>),
-    /// m_max generations without success: the best feasible η found (or the least
-    /// violating one if none is feasible).
-    Exhausted(Plan<N, K>),
-}
-
-/// Something the planner did, for logs and histories.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Event {
-    /// A generation was evaluated completely.
-    Generation {
-        /// Its number (0 = initial).
-        iteration: u32,
-        /// gbest's cost after it.
-        best: Cost,
-        /// Rollouts so far.
-        rollouts: u32,
-    },
-    /// The stagnation alarm fired after generation `iteration`.
-    Stagnation {
-        /// The generation.
-        iteration: u32,
-    },
-    /// C-PSO met σ_e during generation `iteration`.
-    SwarmConverged {
-        /// The generation.
-        iteration: u32,
-        /// f of the successful particle.
-        f: f64,
-    },
-    /// A refinement trial was evaluated.
-    RefineTrial {
-        /// f of the best point after the trial.
-        f: f64,
-        /// Damping after the trial.
-        lambda: f64,
-    },
-}
-
-/// Receives planner events. Implemented for `()` (discard) and `FnMut(&Event)`.
-pub trait Observer {
-    /// Called as things happen.
-    fn event(&mut self, e: &Event);
-}
-
-impl Observer for () {
-    fn event(&mut self, _: &Event) {}
-}
-
-impl<F: FnMut(&Event)> Observer for F {
-    fn event(&mut self, e: &Event) {
-        self(e);
-    }
+    /// Planning is over; the plan says why ([`Plan::stop`]).
+    Finished(Plan<N, K>),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase<const N: usize, const K: usize> {
-    Swarm { iteration: u32, particle: usize },
+    Search,
     Refine(Refiner<N, K>),
-    Done(Status<N, K>),
+    Done(Plan<N, K>),
     Failed(Error),
+}
+
+/// The best point of the search, by constraint domination ([`Cost::dominates`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Record<const N: usize, const K: usize> {
+    /// No rollout has finished: the last error ([`Error::NotInitialized`] before the
+    /// first evaluation).
+    Failed(Error),
+    /// The best finished rollout.
+    Found([[f64; 2]; K], Outcome<N>),
+}
+
+impl<const N: usize, const K: usize> Record<N, K> {
+    /// Folds in the evaluation of `eta`.
+    fn fold(self, eta: &[[f64; 2]; K], evaluation: &Evaluation<N>) -> Self {
+        match (self, evaluation) {
+            (Record::Found(_, best), Evaluation::Finished(_))
+                if !evaluation.cost().dominates(&cost_of(&best)) =>
+            {
+                self
+            }
+            (_, Evaluation::Finished(o)) => Record::Found(*eta, *o),
+            (Record::Failed(_), Evaluation::Failed(e)) => Record::Failed(*e),
+            (kept, _) => kept,
+        }
+    }
 }
 
 /// The planner for `N` joints, null-space dimension `K = N − 3` and a swarm capacity of `P`
@@ -213,34 +159,22 @@ pub struct Planner<const N: usize, const K: usize, const P: usize> {
     task: Task<N, K>,
     config: PlannerConfig,
     stream: Stream,
-    swarm: Swarm<K, P>,
+    cpso: Cpso<K, P>,
     phase: Phase<N, K>,
     rollout: Option<Rollout<N, K>>,
     /// η of the rollout in flight (or last evaluated).
     eta: [[f64; 2]; K],
-    /// Best evaluated point of C-PSO, by domination.
-    best: Option<([[f64; 2]; K], Outcome<N>)>,
+    record: Record<N, K>,
     rollouts: u32,
     swarm_rollouts: u32,
     abandoned: u32,
-    iterations: u32,
     swarm_f: f64,
-    last_error: Option<Error>,
     /// Budget consumed so far (integration steps, plus one per rejected candidate).
     spent: u64,
 }
 
 fn cost_of<const N: usize>(o: &Outcome<N>) -> Cost {
     Cost { phi: o.phi, f: o.f }
-}
-
-/// How the rollout of one candidate ended.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Evaluation<const N: usize> {
-    Finished(Outcome<N>),
-    /// Stopped with Φ of its samples so far (rad) above the cap it was given.
-    Abandoned(f64),
-    Failed(Error),
 }
 
 impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
@@ -251,17 +185,15 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         task: Task::IDLE,
         config: PlannerConfig::reference(0),
         stream: Stream::IDLE,
-        swarm: Swarm::IDLE,
+        cpso: Cpso::IDLE,
         phase: Phase::Failed(Error::NotInitialized),
         rollout: None,
         eta: [[0.0; 2]; K],
-        best: None,
+        record: Record::Failed(Error::NotInitialized),
         rollouts: 0,
         swarm_rollouts: 0,
         abandoned: 0,
-        iterations: 0,
         swarm_f: f64::INFINITY,
-        last_error: None,
         spent: 0,
     };
 
@@ -293,14 +225,12 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// As [`Planner::reset`].
     pub fn restart(&mut self, config: PlannerConfig) -> Result<(), Error> {
         self.rollout = None;
-        self.best = None;
+        self.record = Record::Failed(Error::NotInitialized);
         self.eta = [[0.0; 2]; K];
         self.rollouts = 0;
         self.swarm_rollouts = 0;
         self.abandoned = 0;
-        self.iterations = 0;
         self.swarm_f = f64::INFINITY;
-        self.last_error = None;
         self.spent = 0;
         if let Err(e) = config.validate(P) {
             self.phase = Phase::Failed(e);
@@ -308,14 +238,11 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
         self.config = config;
         self.stream = Stream::new(config.seed);
-        if let Err(e) = self.swarm.reset(&config.swarm, &mut self.stream) {
+        if let Err(e) = self.cpso.reset(&config, &mut self.stream) {
             self.phase = Phase::Failed(e);
             return Err(e);
         }
-        self.phase = Phase::Swarm {
-            iteration: 0,
-            particle: 0,
-        };
+        self.phase = Phase::Search;
         Ok(())
     }
 
@@ -333,7 +260,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// // At most 4000 integration steps this frame: one rollout (3000 steps) and a third.
     /// match planner.step(4000, &mut ()).unwrap() {
     ///     Status::Running(r) => assert_eq!(r.rollouts, 1),
-    ///     _ => unreachable!(),
+    ///     Status::Finished(_) => unreachable!(),
     /// }
     /// ```
     ///
@@ -344,13 +271,11 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// # let task = reference::paper_task().unwrap();
     /// # let mut planner: Planner<7, 4, 64> = Planner::new(task, PlannerConfig::reference(1)).unwrap();
     /// let plan = loop {
-    ///     match planner.step(100_000, &mut ()).unwrap() {
-    ///         Status::Running(_) => continue,
-    ///         Status::Converged(plan) => break plan,
-    ///         Status::Exhausted(_) => panic!("no plan"),
+    ///     if let Status::Finished(plan) = planner.step(100_000, &mut ()).unwrap() {
+    ///         break plan;
     ///     }
     /// };
-    /// assert!(plan.outcome.f <= 0.05 && plan.outcome.phi == 0.0);
+    /// assert!(plan.converged() && plan.outcome.f <= 0.05 && plan.outcome.phi == 0.0);
     /// ```
     pub fn new(task: Task<N, K>, config: PlannerConfig) -> Result<Self, Error> {
         let mut p = Self::IDLE;
@@ -373,7 +298,16 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// The swarm (for inspection).
     #[must_use]
     pub fn swarm(&self) -> &Swarm<K, P> {
-        &self.swarm
+        self.cpso.swarm()
+    }
+
+    /// The finished plan, once [`Planner::step`] has returned [`Status::Finished`].
+    #[must_use]
+    pub fn result(&self) -> Option<&Plan<N, K>> {
+        match &self.phase {
+            Phase::Done(p) => Some(p),
+            Phase::Search | Phase::Refine(_) | Phase::Failed(_) => None,
+        }
     }
 
     /// Budget consumed so far: integration steps, plus one per candidate rejected before
@@ -406,16 +340,17 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     ) -> Result<Status<N, K>, Error> {
         while *left > 0 {
             match self.phase {
-                Phase::Done(s) => return Ok(s),
+                Phase::Done(p) => return Ok(Status::Finished(p)),
                 Phase::Failed(e) => return Err(e),
-                _ => {}
+                Phase::Search | Phase::Refine(_) => {}
             }
             let mut rollout = match self.rollout.take() {
                 Some(r) => r,
                 None => {
-                    self.eta = self.next_eta();
-                    match Rollout::new(&self.task, &self.eta) {
-                        Ok(r) => r.with_violation_cap(self.violation_cap()),
+                    let (eta, cap) = self.candidate();
+                    self.eta = eta;
+                    match Rollout::new(&self.task, &eta) {
+                        Ok(r) => r.with_violation_cap(cap),
                         Err(e) => {
                             *left -= 1;
                             self.absorb(Evaluation::Failed(e), observer);
@@ -443,23 +378,27 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
             }
         }
         match self.phase {
-            Phase::Done(s) => Ok(s),
+            Phase::Done(p) => Ok(Status::Finished(p)),
             Phase::Failed(e) => Err(e),
-            _ => Ok(Status::Running(self.running())),
+            Phase::Search | Phase::Refine(_) => Ok(Status::Running(self.running())),
         }
     }
 
     fn running(&self) -> Running {
-        let (stage, iteration, particle) = match self.phase {
-            Phase::Swarm {
-                iteration,
-                particle,
-            } => (Stage::Swarm, iteration, particle as u32),
-            _ => (Stage::Refine, self.iterations, 0),
-        };
-        let best = match &self.phase {
-            Phase::Refine(r) => cost_of(r.best().1),
-            _ => self.best.map_or(Cost::FAILED, |(_, o)| cost_of(&o)),
+        let (stage, (iteration, particle), best) = match &self.phase {
+            Phase::Refine(r) => (
+                Stage::Refine,
+                (self.cpso.iterations(), 0),
+                cost_of(r.best().1),
+            ),
+            _ => (
+                Stage::Search,
+                Optimizer::<N, K>::progress(&self.cpso),
+                match &self.record {
+                    Record::Found(_, o) => cost_of(o),
+                    Record::Failed(_) => Cost::FAILED,
+                },
+            ),
         };
         Running {
             stage,
@@ -470,87 +409,50 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
     }
 
-    /// The Φ above which the rollout of the next candidate cannot change any decision.
-    ///
-    /// - A swarm particle: its personal best's Φ. A finished `Φ > pbest.Φ` never dominates
-    ///   pbest (feasible beats infeasible; among infeasible, smaller Φ first), so pbest
-    ///   stays; nor can it dominate the planner's best (which dominates or equals every
-    ///   pbest), nor meet σ_e (which needs Φ = 0). A particle without a finished
-    ///   evaluation has pbest Φ = ∞ and is never cut short.
-    /// - A refinement trial: 0 (only `Φ = 0` is accepted). Jacobian columns: ∞ (every
-    ///   column is used).
-    fn violation_cap(&self) -> f64 {
-        match &self.phase {
-            Phase::Swarm { particle, .. } => self
-                .swarm
-                .particle(*particle)
-                .map_or(f64::INFINITY, |p| p.best_cost.phi),
-            Phase::Refine(r) if r.at_trial() => 0.0,
-            _ => f64::INFINITY,
+    /// The next η and its violation cap (applied only once a finished rollout is on
+    /// record, so that an abandoned rollout never leaves the search without a result).
+    fn candidate(&self) -> ([[f64; 2]; K], f64) {
+        let c = match &self.phase {
+            Phase::Refine(r) => r.candidate(),
+            _ => Optimizer::<N, K>::candidate(&self.cpso),
+        };
+        match self.record {
+            Record::Found(..) => (c.eta, c.cap),
+            Record::Failed(_) => (c.eta, f64::INFINITY),
         }
     }
 
-    fn next_eta(&self) -> [[f64; 2]; K] {
-        match &self.phase {
-            Phase::Swarm { particle, .. } => self
-                .swarm
-                .particle(*particle)
-                .map_or([[0.0; 2]; K], |p| p.position),
-            Phase::Refine(r) => r.next_eta(),
-            _ => self.eta,
-        }
-    }
-
-    fn plan(
-        &self,
-        eta: [[f64; 2]; K],
-        outcome: Outcome<N>,
-        refine: Option<RefineReport>,
-    ) -> Plan<N, K> {
+    fn plan(&self, stop: Stop, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Plan<N, K> {
         Plan {
+            stop,
             eta,
             outcome,
-            iterations: self.iterations,
+            iterations: self.cpso.iterations(),
             rollouts: self.rollouts,
             swarm_rollouts: self.swarm_rollouts,
             abandoned: self.abandoned,
-            stagnation_events: self.swarm.stagnation_events(),
+            stagnation_events: self.cpso.swarm().stagnation_events(),
             swarm_f: self.swarm_f,
-            refine,
+            refine: None,
         }
     }
 
     /// Takes the result of the rollout of `self.eta`.
-    fn absorb<O: Observer>(&mut self, result: Evaluation<N>, observer: &mut O) {
+    fn absorb<O: Observer>(&mut self, evaluation: Evaluation<N>, observer: &mut O) {
         self.rollouts += 1;
-        match result {
-            Evaluation::Failed(e) => self.last_error = Some(e),
-            Evaluation::Abandoned(_) => self.abandoned += 1,
-            Evaluation::Finished(_) => {}
+        if let Evaluation::Abandoned(_) = evaluation {
+            self.abandoned += 1;
         }
         match self.phase {
-            Phase::Swarm {
-                iteration,
-                particle,
-            } => self.absorb_swarm(iteration, particle, result, observer),
+            Phase::Search => self.absorb_search(&evaluation, observer),
             Phase::Refine(mut r) => {
-                let trial = r.at_trial();
-                let outcome = match &result {
-                    Evaluation::Finished(o) => Some(o),
-                    Evaluation::Abandoned(_) | Evaluation::Failed(_) => None,
-                };
-                let next = r.absorb(outcome);
-                let (eta, best) = r.best();
-                if trial {
-                    observer.event(&Event::RefineTrial {
-                        f: best.f,
-                        lambda: r.lambda(),
-                    });
-                }
-                self.phase = match next {
+                self.phase = match r.absorb(&evaluation, &mut self.stream, observer) {
                     Next::Continue => Phase::Refine(r),
-                    Next::Done => {
-                        Phase::Done(Status::Converged(self.plan(*eta, *best, Some(r.report()))))
+                    Next::Done(stop) => {
+                        let (eta, best) = r.best();
+                        let mut plan = self.plan(stop, *eta, *best);
+                        plan.refine = Some(r.report());
+                        Phase::Done(plan)
                     }
                 };
             }
@@ -558,87 +460,33 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
     }
 
-    fn absorb_swarm<O: Observer>(
-        &mut self,
-        iteration: u32,
-        particle: usize,
-        result: Evaluation<N>,
-        observer: &mut O,
-    ) {
+    fn absorb_search<O: Observer>(&mut self, evaluation: &Evaluation<N>, observer: &mut O) {
         self.swarm_rollouts += 1;
-        let cost = match &result {
-            Evaluation::Finished(o) => cost_of(o),
-            // A lower bound: Φ only grows along the rest of the rollout.
-            Evaluation::Abandoned(phi) => Cost {
-                phi: *phi,
-                f: f64::INFINITY,
-            },
-            Evaluation::Failed(_) => Cost::FAILED,
-        };
-        self.swarm.record(particle, cost);
-        if let Evaluation::Finished(o) = &result {
-            let better = self
-                .best
-                .as_ref()
-                .is_none_or(|(_, b)| cost.dominates(&cost_of(b)));
-            if better {
-                self.best = Some((self.eta, *o));
-            }
-            if cost.feasible() && o.f <= self.config.tolerance {
-                self.iterations = iteration;
+        self.record = self.record.fold(&self.eta, evaluation);
+        let next = self.cpso.absorb(evaluation, &mut self.stream, observer);
+        self.phase = match (next, evaluation, self.record) {
+            (Next::Continue, ..) => Phase::Search,
+            (Next::Done(Stop::Converged), Evaluation::Finished(o), _) => {
                 self.swarm_f = o.f;
-                observer.event(&Event::SwarmConverged { iteration, f: o.f });
-                self.phase = match self.config.refine {
+                match self.config.refine() {
                     Some(rc) => {
                         let r = Refiner::new(rc, self.eta, *o);
                         if r.done() {
-                            Phase::Done(Status::Converged(self.plan(
-                                self.eta,
-                                *o,
-                                Some(r.report()),
-                            )))
+                            let mut plan = self.plan(Stop::Converged, self.eta, *o);
+                            plan.refine = Some(r.report());
+                            Phase::Done(plan)
                         } else {
                             Phase::Refine(r)
                         }
                     }
-                    None => Phase::Done(Status::Converged(self.plan(self.eta, *o, None))),
-                };
-                return;
-            }
-        }
-        if particle + 1 < self.swarm.count() {
-            self.phase = Phase::Swarm {
-                iteration,
-                particle: particle + 1,
-            };
-            return;
-        }
-        // End of a generation.
-        let alarm = self.swarm.end_generation();
-        let (_, best) = self.swarm.gbest();
-        self.iterations = iteration;
-        observer.event(&Event::Generation {
-            iteration,
-            best,
-            rollouts: self.rollouts,
-        });
-        if alarm {
-            observer.event(&Event::Stagnation { iteration });
-        }
-        if iteration >= self.config.swarm.max_iterations {
-            self.phase = match self.best {
-                Some((eta, o)) => {
-                    self.swarm_f = o.f;
-                    Phase::Done(Status::Exhausted(self.plan(eta, o, None)))
+                    None => Phase::Done(self.plan(Stop::Converged, self.eta, *o)),
                 }
-                None => Phase::Failed(self.last_error.unwrap_or(Error::EtaZero)),
-            };
-            return;
-        }
-        self.swarm.advance(iteration + 1, &mut self.stream);
-        self.phase = Phase::Swarm {
-            iteration: iteration + 1,
-            particle: 0,
+            }
+            (Next::Done(_), _, Record::Found(eta, o)) => {
+                self.swarm_f = o.f;
+                Phase::Done(self.plan(Stop::Exhausted, eta, o))
+            }
+            (Next::Done(_), _, Record::Failed(e)) => Phase::Failed(e),
         };
     }
 }

@@ -1,9 +1,8 @@
 //! Local refinement beyond the paper: Levenberg–Marquardt on η after C-PSO reaches σ_e.
 //!
-//! Owns [`RefineConfig`], [`RefineReport`] and the refinement state machine. It never runs
-//! a rollout: the planner asks [`Refiner::next_eta`] which η to evaluate and hands each
-//! outcome back with [`Refiner::absorb`]. That keeps it budgeted and resumable exactly like
-//! the swarm.
+//! Owns [`RefineReport`] and the refinement state machine [`Refiner`], an
+//! [`Optimizer`]: it never runs a rollout; the planner asks for each candidate and hands
+//! its evaluation back, which keeps it budgeted and resumable exactly like the swarm.
 //!
 //! One iteration:
 //! 1. **Jacobian** of the 6-vector `e` (spec §6) by forward differences: `2K` rollouts at
@@ -19,7 +18,9 @@
 //! descent left at rounding level). Only improvements are accepted, so the result is never
 //! worse than the C-PSO result.
 
-use crate::error::{Error, Param};
+use crate::config::RefineConfig;
+use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
+use crate::random::Stream;
 use crate::rollout::Outcome;
 
 /// Relative finite-difference step.
@@ -30,35 +31,6 @@ const LAMBDA_START: f64 = 1e-3;
 const LAMBDA_MAX: f64 = 1e8;
 /// Smallest damping.
 const LAMBDA_MIN: f64 = 1e-12;
-
-/// Refinement settings.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RefineConfig {
-    /// Target on f (> 0), e.g. 1e-6.
-    pub tolerance: f64,
-    /// Most rollouts refinement may spend (≥ 1).
-    pub max_rollouts: u32,
-}
-
-impl RefineConfig {
-    /// Checks the settings.
-    ///
-    /// # Errors
-    /// A non-finite or non-positive tolerance; a zero rollout budget.
-    pub fn validate(&self) -> Result<(), Error> {
-        if !self.tolerance.is_finite() {
-            return Err(Error::NotFinite(Param::RefineTolerance));
-        }
-        if self.tolerance <= 0.0 {
-            return Err(Error::NotPositive(Param::RefineTolerance));
-        }
-        if self.max_rollouts == 0 {
-            return Err(Error::NotPositive(Param::RefineRollouts));
-        }
-        Ok(())
-    }
-}
 
 /// Why refinement stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,11 +58,12 @@ pub struct RefineReport {
     pub f_start: f64,
 }
 
+/// Which rollout the refiner waits for.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Stage {
-    /// Evaluating Jacobian column `c` (`0..2K`).
+enum Awaiting {
+    /// Jacobian column `c` (`0..2K`).
     Column(usize),
-    /// Evaluating the trial point.
+    /// The trial point.
     Trial,
 }
 
@@ -104,21 +77,12 @@ pub struct Refiner<const N: usize, const K: usize> {
     h: f64,
     jac: [[[f64; 6]; 2]; K],
     lambda: f64,
-    stage: Stage,
+    awaiting: Awaiting,
     trial: [[f64; 2]; K],
     iterations: u32,
     rollouts: u32,
     f_start: f64,
     stop: Option<RefineStop>,
-}
-
-/// Result of absorbing one rollout.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Next {
-    /// Evaluate [`Refiner::next_eta`] next.
-    Continue,
-    /// Refinement is over.
-    Done,
 }
 
 impl<const N: usize, const K: usize> Refiner<N, K> {
@@ -138,7 +102,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
             h: FD_STEP * largest,
             jac: [[[0.0; 6]; 2]; K],
             lambda: LAMBDA_START,
-            stage: Stage::Column(0),
+            awaiting: Awaiting::Column(0),
             trial: eta,
             iterations: 0,
             rollouts: 0,
@@ -179,32 +143,33 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
     /// The η to evaluate next.
     #[must_use]
     pub fn next_eta(&self) -> [[f64; 2]; K] {
-        match self.stage {
-            Stage::Column(c) => {
+        match self.awaiting {
+            Awaiting::Column(c) => {
                 let mut eta = self.eta;
                 if let Some(v) = eta.get_mut(c / 2).and_then(|p| p.get_mut(c % 2)) {
                     *v += self.h;
                 }
                 eta
             }
-            Stage::Trial => self.trial,
+            Awaiting::Trial => self.trial,
         }
     }
 
     /// `true` if the next rollout is a trial step (not a Jacobian column).
     #[must_use]
     pub fn at_trial(&self) -> bool {
-        self.stage == Stage::Trial
+        self.awaiting == Awaiting::Trial
     }
 
-    /// Takes the rollout of [`Refiner::next_eta`] (`None` if it failed).
-    pub fn absorb(&mut self, result: Option<&Outcome<N>>) -> Next {
+    /// Takes the rollout of [`Refiner::next_eta`] (`None` if it failed or was abandoned);
+    /// `true` while refinement goes on.
+    fn take(&mut self, result: Option<&Outcome<N>>) -> bool {
         if self.stop.is_some() {
-            return Next::Done;
+            return false;
         }
         self.rollouts += 1;
-        match self.stage {
-            Stage::Column(c) => {
+        match self.awaiting {
+            Awaiting::Column(c) => {
                 let column = match result {
                     Some(o) => {
                         let ep = o.error.to_array();
@@ -221,12 +186,12 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     *col = column;
                 }
                 if c + 1 < 2 * K {
-                    self.stage = Stage::Column(c + 1);
+                    self.awaiting = Awaiting::Column(c + 1);
                 } else {
                     self.plan_trial();
                 }
             }
-            Stage::Trial => match result {
+            Awaiting::Trial => match result {
                 Some(o) if o.phi == 0.0 && o.f < self.outcome.f => {
                     self.eta = self.trial;
                     self.outcome = *o;
@@ -236,7 +201,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     if o.f <= self.config.tolerance {
                         self.stop = Some(RefineStop::Reached);
                     } else {
-                        self.stage = Stage::Column(0);
+                        self.awaiting = Awaiting::Column(0);
                     }
                 }
                 _ => {
@@ -252,11 +217,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
         if self.stop.is_none() && self.rollouts >= self.config.max_rollouts {
             self.stop = Some(RefineStop::Budget);
         }
-        if self.stop.is_some() {
-            Next::Done
-        } else {
-            Next::Continue
-        }
+        self.stop.is_none()
     }
 
     /// Computes the trial point from the current Jacobian and λ.
@@ -290,7 +251,47 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
             *t -= dot;
         }
         self.trial = trial;
-        self.stage = Stage::Trial;
+        self.awaiting = Awaiting::Trial;
+    }
+}
+
+impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
+    /// The next η; a trial must keep Φ = 0 (cap 0), a Jacobian column is always used.
+    fn candidate(&self) -> Candidate<K> {
+        Candidate {
+            eta: self.next_eta(),
+            cap: if self.at_trial() { 0.0 } else { f64::INFINITY },
+        }
+    }
+
+    fn absorb<O: Observer>(
+        &mut self,
+        evaluation: &Evaluation<N>,
+        _: &mut Stream,
+        observer: &mut O,
+    ) -> Next {
+        let trial = self.at_trial();
+        let more = self.take(evaluation.outcome());
+        if trial {
+            observer.event(&Event::RefineTrial {
+                f: self.outcome.f,
+                lambda: self.lambda,
+            });
+        }
+        if more {
+            Next::Continue
+        } else {
+            // Refinement starts from a converged point and accepts only improvements.
+            Next::Done(Stop::Converged)
+        }
+    }
+
+    fn progress(&self) -> (u32, u32) {
+        let c = match self.awaiting {
+            Awaiting::Column(c) => c as u32,
+            Awaiting::Trial => 2 * K as u32,
+        };
+        (self.iterations, c)
     }
 }
 

@@ -16,11 +16,13 @@
 
 use crate::error::Error;
 use crate::geometry::{Pose, PoseError};
+use crate::integrator::euler_step;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::momentum::coupling;
 use crate::nullspace::Basis;
 use crate::task::{Task, rank_error};
 use crate::trajectory::TimeLaw;
+use core::convert::Infallible;
 
 /// One point of the trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -247,28 +249,43 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         budget: u32,
         sink: &mut S,
     ) -> Result<Progress<N>, Error> {
+        let steps = task.motion().steps();
+        let end = self.step.saturating_add(budget).min(steps);
+        if let Err(Abandon { step, phi }) =
+            self.integrate(task, end, &PhiCap(self.phi_cap), sink)?
+        {
+            return Ok(Progress::Abandoned { step, phi });
+        }
+        if self.step < steps {
+            return Ok(Progress::Running {
+                step: self.step,
+                steps,
+            });
+        }
+        Ok(Progress::Done(self.conclude(task, sink)))
+    }
+
+    /// Integration steps up to step `end` (at most `S`). `Ok(Err(_))` if `cap` stopped it.
+    #[inline(never)]
+    fn integrate<S: Sink<N>, C: Cap>(
+        &mut self,
+        task: &Task<N, K>,
+        end: u32,
+        cap: &C,
+        sink: &mut S,
+    ) -> Result<Result<(), C::Stop>, Error> {
         let motion = task.motion();
         let robot = task.robot();
-        let steps = motion.steps();
         let dt = motion.dt();
-        let end = self.step.saturating_add(budget).min(steps);
         let mut frames = Frames::IDLE;
         while self.step < end {
             let t = motion.time(self.step);
             let qd = self.basis.combine(&self.law.alpha(t));
             self.record(t, &qd, sink);
-            if self.phi_cap < f64::INFINITY {
-                let phi = robot.violation(&self.q_min, &self.q_max);
-                if phi > self.phi_cap {
-                    return Ok(Progress::Abandoned {
-                        step: self.step,
-                        phi,
-                    });
-                }
+            if let Err(stop) = cap.check(self.step, || robot.violation(&self.q_min, &self.q_max)) {
+                return Ok(Err(stop));
             }
-            for (q, v) in self.q.iter_mut().zip(qd.iter()) {
-                *q += dt * v;
-            }
+            euler_step(&mut self.q, &qd, dt);
             self.step += 1;
             if !self.q.iter().all(|v| v.is_finite()) {
                 return Err(Error::NonFiniteState { step: self.step });
@@ -279,28 +296,28 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
                 .transport(&coupling(robot, &frames))
                 .map_err(rank_error(self.step))?;
         }
-        if self.step < steps {
-            return Ok(Progress::Running {
-                step: self.step,
-                steps,
-            });
-        }
-        // Final sample at t_f: β(t_f) = 0 exactly, so q̇_S = 0.
-        let qd = self.basis.combine(&self.law.alpha(motion.tf()));
-        self.record(motion.tf(), &qd, sink);
+        Ok(Ok(()))
+    }
+
+    /// After the last step: the final sample at `t_f` (β(t_f) = 0 exactly, so q̇_S = 0) and
+    /// the outcome.
+    fn conclude<S: Sink<N>>(&mut self, task: &Task<N, K>, sink: &mut S) -> Outcome<N> {
+        let tf = task.motion().tf();
+        let qd = self.basis.combine(&self.law.alpha(tf));
+        self.record(tf, &qd, sink);
         let end_pose = task.end_pose(&self.q, IDENTITY_WXYZ);
         let error = end_pose.error_to(task.target());
-        Ok(Progress::Done(Outcome {
+        Outcome {
             q_final: self.q,
             joint_min: self.q_min,
             joint_max: self.q_max,
-            phi: robot.violation(&self.q_min, &self.q_max),
+            phi: task.robot().violation(&self.q_min, &self.q_max),
             end_pose,
             error,
             f: error.norm(),
             max_abs_qd: self.max_abs_qd,
             g: self.law.g(),
-        }))
+        }
     }
 
     /// Emits sample `self.step` and folds it into the extrema.
@@ -327,6 +344,48 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     }
 }
 
+/// Where an abandoned rollout stopped.
+struct Abandon {
+    step: u32,
+    phi: f64,
+}
+
+/// How a rollout checks its violation cap (once per sample, after folding it in).
+trait Cap {
+    /// What stopping early carries (`Infallible`: never stops).
+    type Stop;
+    /// `Err` to stop at `step`; `phi` computes Φ of the samples so far.
+    fn check(&self, step: u32, phi: impl FnOnce() -> f64) -> Result<(), Self::Stop>;
+}
+
+/// A finite cap stops a rollout once Φ exceeds it; an infinite one never computes Φ.
+struct PhiCap(f64);
+
+impl Cap for PhiCap {
+    type Stop = Abandon;
+    #[inline(always)]
+    fn check(&self, step: u32, phi: impl FnOnce() -> f64) -> Result<(), Abandon> {
+        if self.0 < f64::INFINITY {
+            let phi = phi();
+            if phi > self.0 {
+                return Err(Abandon { step, phi });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// No cap: the rollout always runs to the end.
+struct NoCap;
+
+impl Cap for NoCap {
+    type Stop = Infallible;
+    #[inline(always)]
+    fn check(&self, _: u32, _: impl FnOnce() -> f64) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
 impl<const N: usize, const K: usize> Task<N, K> {
     /// Runs a whole rollout of `eta` (pairs `(a_i, b_i)`) in one call.
     ///
@@ -338,12 +397,7 @@ impl<const N: usize, const K: usize> Task<N, K> {
         sink: &mut S,
     ) -> Result<Outcome<N>, Error> {
         let mut r = Rollout::new(self, eta)?;
-        match r.advance(self, self.motion().steps(), sink)? {
-            Progress::Done(o) => Ok(o),
-            // Unreachable: the budget covers every step and there is no violation cap.
-            Progress::Running { step, .. } | Progress::Abandoned { step, .. } => {
-                Err(Error::NonFiniteState { step })
-            }
-        }
+        let Ok(()) = r.integrate(self, self.motion().steps(), &NoCap, sink)?;
+        Ok(r.conclude(self, sink))
     }
 }

@@ -26,12 +26,10 @@
 //! draws for the permutation (`i = T−1 … 1`), then per particle in index order `2K` draws
 //! (S1) or one draw (S2); then per particle not in S1, per component, `r₁` then `r₂`.
 
-use crate::error::{Error, Param};
+use crate::config::{MAX_WINDOW, PlannerConfig};
+use crate::error::Error;
 use crate::random::Stream;
 use heapless::Deque;
-
-/// Longest stagnation window (iterations).
-pub const MAX_WINDOW: usize = 64;
 
 /// A point's cost: constraint violation Φ (eq. 23, rad) and pose error f.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,130 +67,6 @@ impl Cost {
     }
 }
 
-/// C-PSO settings (spec §7). Validate with [`SwarmConfig::validate`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct SwarmConfig {
-    /// Swarm size T, `1..=P`.
-    pub particles: u32,
-    /// m_max ≥ 1: generations after the initial one.
-    pub max_iterations: u32,
-    /// Cognitive factor c1 ≥ 0.
-    pub c1: f64,
-    /// Social factor c2 ≥ 0.
-    pub c2: f64,
-    /// ω at the first generation.
-    pub w_max: f64,
-    /// ω at generation m_max, `0 ≤ w_min ≤ w_max`.
-    pub w_min: f64,
-    /// Initial positions are uniform in `[−B, B]^(2K)`, B > 0.
-    pub eta_bound: f64,
-    /// The stagnation alarm.
-    pub stagnation: StagnationConfig,
-}
-
-/// The stagnation alarm of paper §5.2.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct StagnationConfig {
-    /// Generations over which gbest must improve, `1..=MAX_WINDOW`.
-    pub window: u32,
-    /// Relative improvement below which the swarm stagnates (≥ 0; 0 disables the alarm).
-    pub min_relative_improvement: f64,
-    /// Spread ε₁ ≥ 0 of the S1 restart around gbest.
-    pub eps1: f64,
-    /// Inertia boost ε₂ of S2 (its magnitude is used).
-    pub eps2: f64,
-}
-
-impl SwarmConfig {
-    /// The spec §7 values for `particles` particles: c1 = c2 = 1.49618, ω 0.9 → 0.4,
-    /// B = 5, m_max = 200, window 10, 1e-3, ε₁ = 0.5, ε₂ = 0.3.
-    #[must_use]
-    pub const fn reference(particles: u32) -> Self {
-        Self {
-            particles,
-            max_iterations: 200,
-            c1: 1.49618,
-            c2: 1.49618,
-            w_max: 0.9,
-            w_min: 0.4,
-            eta_bound: 5.0,
-            stagnation: StagnationConfig {
-                window: 10,
-                min_relative_improvement: 1e-3,
-                eps1: 0.5,
-                eps2: 0.3,
-            },
-        }
-    }
-
-    /// Checks every setting against a capacity of `capacity` particles.
-    ///
-    /// # Errors
-    /// The first bad setting, named.
-    pub fn validate(&self, capacity: usize) -> Result<(), Error> {
-        if self.particles == 0 {
-            return Err(Error::NotPositive(Param::Particles));
-        }
-        if self.particles as usize > capacity {
-            return Err(Error::CapacityExceeded {
-                param: Param::Particles,
-                requested: self.particles,
-                capacity: capacity.min(u32::MAX as usize) as u32,
-            });
-        }
-        if self.max_iterations == 0 {
-            return Err(Error::NotPositive(Param::MaxIterations));
-        }
-        let s = &self.stagnation;
-        for (v, p) in [
-            (self.c1, Param::C1),
-            (self.c2, Param::C2),
-            (self.w_max, Param::WMax),
-            (self.w_min, Param::WMin),
-            (s.min_relative_improvement, Param::MinImprovement),
-            (s.eps1, Param::Eps1),
-        ] {
-            if !v.is_finite() {
-                return Err(Error::NotFinite(p));
-            }
-            if v < 0.0 {
-                return Err(Error::Negative(p));
-            }
-        }
-        if !s.eps2.is_finite() {
-            return Err(Error::NotFinite(Param::Eps2));
-        }
-        if self.w_min > self.w_max {
-            return Err(Error::InertiaWeightsInverted);
-        }
-        if !self.eta_bound.is_finite() {
-            return Err(Error::NotFinite(Param::EtaBound));
-        }
-        if self.eta_bound <= 0.0 {
-            return Err(Error::NotPositive(Param::EtaBound));
-        }
-        if s.window == 0 {
-            return Err(Error::NotPositive(Param::StagnationWindow));
-        }
-        if s.window as usize > MAX_WINDOW {
-            return Err(Error::CapacityExceeded {
-                param: Param::StagnationWindow,
-                requested: s.window,
-                capacity: MAX_WINDOW as u32,
-            });
-        }
-        Ok(())
-    }
-
-    /// ω(m) = ω_max − m (ω_max − ω_min)/m_max (eq. 22).
-    #[must_use]
-    pub fn inertia_weight(&self, m: u32) -> f64 {
-        self.w_max - f64::from(m) * (self.w_max - self.w_min) / f64::from(self.max_iterations)
-    }
-}
-
 /// One particle: position, velocity and personal best in η space (pairs `(a_i, b_i)`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Particle<const K: usize> {
@@ -215,7 +89,7 @@ pub struct Particle<const K: usize> {
 /// The swarm: capacity `P`, `T` particles in use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Swarm<const K: usize, const P: usize> {
-    config: SwarmConfig,
+    config: PlannerConfig,
     particles: [Particle<K>; P],
     count: usize,
     gbest: usize,
@@ -227,7 +101,7 @@ pub struct Swarm<const K: usize, const P: usize> {
 impl<const K: usize, const P: usize> Swarm<K, P> {
     /// No particles in use (a placeholder, `const`, for statically allocated planners).
     pub const IDLE: Self = Self {
-        config: SwarmConfig::reference(0),
+        config: PlannerConfig::reference(0),
         particles: [Particle {
             position: [[0.0; 2]; K],
             velocity: [[0.0; 2]; K],
@@ -248,8 +122,8 @@ impl<const K: usize, const P: usize> Swarm<K, P> {
     /// unknown ([`Cost::FAILED`] until recorded).
     ///
     /// # Errors
-    /// A bad setting (see [`SwarmConfig::validate`]).
-    pub fn new(config: &SwarmConfig, stream: &mut Stream) -> Result<Self, Error> {
+    /// A bad setting (see [`PlannerConfig::validate`]).
+    pub fn new(config: &PlannerConfig, stream: &mut Stream) -> Result<Self, Error> {
         let mut s = Self::IDLE;
         s.reset(config, stream)?;
         Ok(s)
@@ -259,8 +133,8 @@ impl<const K: usize, const P: usize> Swarm<K, P> {
     /// large temporaries: flight software keeps the swarm in static memory).
     ///
     /// # Errors
-    /// A bad setting (see [`SwarmConfig::validate`]); the swarm is then left empty.
-    pub fn reset(&mut self, config: &SwarmConfig, stream: &mut Stream) -> Result<(), Error> {
+    /// A bad setting (see [`PlannerConfig::validate`]); the swarm is then left empty.
+    pub fn reset(&mut self, config: &PlannerConfig, stream: &mut Stream) -> Result<(), Error> {
         self.count = 0;
         config.validate(P)?;
         let count = config.particles as usize;
@@ -291,7 +165,7 @@ impl<const K: usize, const P: usize> Swarm<K, P> {
 
     /// The settings.
     #[must_use]
-    pub fn config(&self) -> &SwarmConfig {
+    pub fn config(&self) -> &PlannerConfig {
         &self.config
     }
 

@@ -3,13 +3,14 @@
 //!
 //! Owns [`TruthModel`], a [`Sink`] that follows the piecewise-linear joint path through
 //! the samples it is fed and integrates `w₀ = −H~b⁻¹ H~bm q̇` with `m` midpoint sub-steps
-//! per segment. The rotation over a sub-step depends only on the joint increment
+//! per segment ([`crate::integrator::midpoint_substeps`]). The rotation over a sub-step depends only on the joint increment
 //! (`δθ = −H~b⁻¹ H~bm(q_mid) δq`, base frame), so the samples' times and rates are not
 //! needed: the path as written is what is checked. The base disturbance is the largest
 //! base rotation angle over the motion.
 
 use crate::error::Error;
-use crate::geometry::{Pose, Vec3, normalized, quat_angle, quat_exp, quat_mul};
+use crate::geometry::{Pose, normalized, quat_angle, quat_exp, quat_mul};
+use crate::integrator::midpoint_substeps;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::momentum::Momentum;
 use crate::rollout::{Sample, Sink};
@@ -54,33 +55,23 @@ impl<'t, const N: usize, const K: usize> TruthModel<'t, N, K> {
         if self.error.is_some() {
             return;
         }
-        let m = f64::from(self.substeps);
-        let mut dq = [0.0; N];
-        for ((d, a), b) in dq.iter_mut().zip(prev.iter()).zip(q.iter()) {
-            *d = (b - a) / m;
-        }
-        for j in 0..self.substeps {
-            let frac = (f64::from(j) + 0.5) / m;
-            let mut mid = prev;
-            for ((x, a), b) in mid.iter_mut().zip(prev.iter()).zip(q.iter()) {
-                *x = a + frac * (b - a);
-            }
-            let robot = self.task.robot();
-            let mom = Momentum::new(robot, &Frames::new(robot, &mid));
-            match mom.base_angular_velocity(&dq) {
-                Ok(dtheta) => self.rotate(&dtheta),
-                Err(e) => {
-                    self.error = Some(e);
-                    return;
-                }
-            }
+        let robot = self.task.robot();
+        let mut attitude = self.attitude;
+        let mut max_angle = self.max_angle;
+        let result = midpoint_substeps(&prev, q, self.substeps, |mid, dq| {
+            let dtheta =
+                Momentum::new(robot, &Frames::new(robot, mid)).base_angular_velocity(dq)?;
+            attitude = normalized(quat_mul(attitude, quat_exp(&dtheta)));
+            max_angle = max_angle.max(quat_angle(attitude));
+            Ok(())
+        });
+        self.attitude = attitude;
+        self.max_angle = max_angle;
+        if let Err(e) = result {
+            self.error = Some(e);
+            return;
         }
         self.segments += 1;
-    }
-
-    fn rotate(&mut self, dtheta: &Vec3) {
-        self.attitude = normalized(quat_mul(self.attitude, quat_exp(dtheta)));
-        self.max_angle = self.max_angle.max(quat_angle(self.attitude));
     }
 
     /// Base attitude at the last sample (unit quaternion, base → inertial).

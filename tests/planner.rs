@@ -11,8 +11,8 @@ mod common;
 use common::*;
 use reactionless::random::Stream;
 use reactionless::{
-    Cost, Error, Event, Param, Plan, Planner, PlannerConfig, RefineConfig, RefineStop, Sample,
-    Setpoints, Status, Swarm, SwarmConfig, Task, TruthModel,
+    Cost, Error, Event, Param, Plan, Planner, PlannerConfig, RefineStop, Sample, Setpoints, Status,
+    Stop, Swarm, Task, TruthModel,
 };
 
 type RefPlanner = Planner<7, 4, 64>;
@@ -30,7 +30,7 @@ fn run(planner: &mut RefPlanner, budget: u32) -> (Status<7, 4>, u64) {
 
 fn plan_of(s: &Status<7, 4>) -> &Plan<7, 4> {
     match s {
-        Status::Converged(p) | Status::Exhausted(p) => p,
+        Status::Finished(p) => p,
         Status::Running(_) => panic!("still running"),
     }
 }
@@ -84,7 +84,8 @@ fn constraint_domination_rules() {
 
 fn small_swarm(particles: u32) -> (Swarm<2, 8>, Stream) {
     let mut stream = Stream::new(3);
-    let mut cfg = SwarmConfig::reference(particles);
+    let mut cfg = PlannerConfig::reference(1);
+    cfg.particles = particles;
     cfg.stagnation.window = 3;
     (Swarm::new(&cfg, &mut stream).unwrap(), stream)
 }
@@ -158,13 +159,14 @@ fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
 fn m_max_is_honoured() {
     let task = paper_task();
     let mut cfg = PlannerConfig::reference(1);
-    cfg.swarm.max_iterations = 2;
+    cfg.max_iterations = 2;
     cfg.tolerance = 1e-12;
     let mut p = RefPlanner::new(task, cfg).unwrap();
     let (s, _) = run(&mut p, u32::MAX);
-    let Status::Exhausted(plan) = s else {
+    let Status::Finished(plan) = s else {
         panic!("expected exhaustion")
     };
+    assert_eq!(plan.stop, Stop::Exhausted);
     assert_eq!(plan.iterations, 2);
     assert_eq!(plan.rollouts, 40 * 3);
     assert_eq!(plan.outcome.phi, 0.0, "the best feasible point is reported");
@@ -179,11 +181,11 @@ fn invalid_settings_are_typed_errors() {
         RefPlanner::new(task.clone(), c).unwrap_err()
     };
     assert_eq!(
-        bad(|c| c.swarm.particles = 0),
+        bad(|c| c.particles = 0),
         Error::NotPositive(Param::Particles)
     );
     assert_eq!(
-        bad(|c| c.swarm.particles = 65),
+        bad(|c| c.particles = 65),
         Error::CapacityExceeded {
             param: Param::Particles,
             requested: 65,
@@ -191,7 +193,7 @@ fn invalid_settings_are_typed_errors() {
         }
     );
     assert_eq!(
-        bad(|c| c.swarm.max_iterations = 0),
+        bad(|c| c.max_iterations = 0),
         Error::NotPositive(Param::MaxIterations)
     );
     assert_eq!(
@@ -203,21 +205,18 @@ fn invalid_settings_are_typed_errors() {
         Error::NotFinite(Param::Tolerance)
     );
     assert_eq!(
-        bad(|c| c.swarm.eta_bound = -1.0),
+        bad(|c| c.eta_bound = -1.0),
         Error::NotPositive(Param::EtaBound)
     );
-    assert_eq!(bad(|c| c.swarm.w_min = 0.95), Error::InertiaWeightsInverted);
-    assert_eq!(bad(|c| c.swarm.c1 = -0.1), Error::Negative(Param::C1));
+    assert_eq!(bad(|c| c.w_min = 0.95), Error::InertiaWeightsInverted);
+    assert_eq!(bad(|c| c.c1 = -0.1), Error::Negative(Param::C1));
+    assert_eq!(bad(|c| c.c2 = f64::INFINITY), Error::NotFinite(Param::C2));
     assert_eq!(
-        bad(|c| c.swarm.c2 = f64::INFINITY),
-        Error::NotFinite(Param::C2)
-    );
-    assert_eq!(
-        bad(|c| c.swarm.stagnation.window = 0),
+        bad(|c| c.stagnation.window = 0),
         Error::NotPositive(Param::StagnationWindow)
     );
     assert_eq!(
-        bad(|c| c.swarm.stagnation.window = 65),
+        bad(|c| c.stagnation.window = 65),
         Error::CapacityExceeded {
             param: Param::StagnationWindow,
             requested: 65,
@@ -225,17 +224,17 @@ fn invalid_settings_are_typed_errors() {
         }
     );
     assert_eq!(
-        bad(|c| c.refine = Some(RefineConfig {
-            tolerance: 0.0,
-            max_rollouts: 10
-        })),
+        bad(|c| {
+            c.refine_tolerance = Some(0.0);
+            c.refine_max_rollouts = 10;
+        }),
         Error::NotPositive(Param::RefineTolerance)
     );
     assert_eq!(
-        bad(|c| c.refine = Some(RefineConfig {
-            tolerance: 1e-6,
-            max_rollouts: 0
-        })),
+        bad(|c| {
+            c.refine_tolerance = Some(1e-6);
+            c.refine_max_rollouts = 0;
+        }),
         Error::NotPositive(Param::RefineRollouts)
     );
 }
@@ -261,10 +260,8 @@ fn same_seed_same_bits_different_seed_different_bits() {
 #[test]
 fn budget_slicing_gives_identical_bits() {
     let mut cfg = PlannerConfig::reference(2);
-    cfg.refine = Some(RefineConfig {
-        tolerance: 1e-8,
-        max_rollouts: 60,
-    });
+    cfg.refine_tolerance = Some(1e-8);
+    cfg.refine_max_rollouts = 60;
     let (reference, calls) = run(&mut RefPlanner::new(paper_task(), cfg).unwrap(), u32::MAX);
     assert_eq!(calls, 1);
     let want = bits(plan_of(&reference));
@@ -286,10 +283,8 @@ fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
     for seed in 1..=10 {
         let task = paper_task();
         let mut cfg = PlannerConfig::reference(seed);
-        cfg.refine = Some(RefineConfig {
-            tolerance: 1e-6,
-            max_rollouts: 400,
-        });
+        cfg.refine_tolerance = Some(1e-6);
+        cfg.refine_max_rollouts = 400;
         let mut history = Vec::new();
         let mut observer = |e: &Event| {
             if let Event::Generation { best, .. } = e {
@@ -303,9 +298,10 @@ fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
                 s => break s,
             }
         };
-        let Status::Converged(plan) = s else {
-            panic!("seed {seed} did not converge: {s:?}")
+        let Status::Finished(plan) = s else {
+            panic!("seed {seed} still running: {s:?}")
         };
+        assert!(plan.converged(), "seed {seed} did not converge: {plan:?}");
         assert!(plan.iterations <= 200);
         assert!(
             plan.swarm_f <= 0.05,
@@ -393,7 +389,7 @@ fn a_task_of_another_robot_plans_too() {
         .unwrap();
     let task = Task::<6, 3>::new(robot, q0, made.end_pose, motion).unwrap();
     let mut cfg = PlannerConfig::reference(1);
-    cfg.swarm.particles = 30;
+    cfg.particles = 30;
     let mut p: Planner<6, 3, 32> = Planner::new(task, cfg).unwrap();
     let s = loop {
         match p.step(u32::MAX, &mut ()).unwrap() {
@@ -402,7 +398,9 @@ fn a_task_of_another_robot_plans_too() {
         }
     };
     match s {
-        Status::Converged(plan) => assert!(plan.outcome.f <= 0.05 && plan.outcome.phi == 0.0),
+        Status::Finished(plan) => {
+            assert!(plan.converged() && plan.outcome.f <= 0.05 && plan.outcome.phi == 0.0)
+        }
         other => panic!("{other:?}"),
     }
 }
@@ -413,9 +411,9 @@ fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
     // (EtaTooLarge), the particle gets Φ = f = ∞, progress stays finite-or-∞ (never NaN),
     // and with nothing ever evaluated the planner ends with the typed error.
     let mut cfg = PlannerConfig::reference(3);
-    cfg.swarm.particles = 6;
-    cfg.swarm.max_iterations = 2;
-    cfg.swarm.eta_bound = 1e307;
+    cfg.particles = 6;
+    cfg.max_iterations = 2;
+    cfg.eta_bound = 1e307;
     let mut p = RefPlanner::new(paper_task(), cfg).unwrap();
     let mut last = None;
     for _ in 0..1000 {
@@ -489,7 +487,7 @@ fn an_idle_planner_refuses_to_run() {
     assert_eq!(p.step(100, &mut ()), Err(Error::NotInitialized));
     // A failed reset leaves it refusing, with that error.
     let mut bad = PlannerConfig::reference(1);
-    bad.swarm.particles = 0;
+    bad.particles = 0;
     assert_eq!(
         p.reset(paper_task(), bad),
         Err(Error::NotPositive(Param::Particles))

@@ -14,8 +14,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use reactionless::{
-    Basis, Error, Frames, Momentum, Motion, Planner, PlannerConfig, Pose, Progress, RefineConfig,
-    Robot, RobotDesc, Rollout, Status, SwarmConfig, Task,
+    Basis, Error, Frames, Momentum, Motion, Planner, PlannerConfig, Pose, Progress, Robot,
+    RobotDesc, Rollout, Status, Task,
 };
 
 fn config(cases: u32) -> ProptestConfig {
@@ -268,27 +268,24 @@ fn small_planner_config() -> impl Strategy<Value = PlannerConfig> {
                 refine,
             )| {
                 PlannerConfig {
-                    swarm: SwarmConfig {
-                        particles,
-                        max_iterations,
-                        c1,
-                        c2,
-                        w_max: wa.max(wb),
-                        w_min: wa.min(wb),
-                        eta_bound,
-                        stagnation: reactionless::StagnationConfig {
-                            window,
-                            min_relative_improvement: mri,
-                            eps1,
-                            eps2,
-                        },
+                    particles,
+                    max_iterations,
+                    c1,
+                    c2,
+                    w_max: wa.max(wb),
+                    w_min: wa.min(wb),
+                    eta_bound,
+                    stagnation: reactionless::StagnationConfig {
+                        window,
+                        min_relative_improvement: mri,
+                        eps1,
+                        eps2,
                     },
                     tolerance,
                     seed,
-                    refine: refine.then_some(RefineConfig {
-                        tolerance: 1e-9,
-                        max_rollouts: 12,
-                    }),
+                    refine_tolerance: refine.then_some(1e-9),
+                    refine_max_rollouts: 12,
+                    frame_budget: 3000,
                 }
             },
         )
@@ -315,7 +312,7 @@ proptest! {
         let whole = run_planner(&task, cfg, u32::MAX);
         let sliced = run_planner(&task, cfg, budget);
         prop_assert_eq!(whole, sliced);
-        if let Ok(Status::Converged(p) | Status::Exhausted(p)) = whole {
+        if let Ok(Status::Finished(p)) = whole {
             let o = &p.outcome;
             let scalars = [o.f, o.phi, o.g, p.swarm_f];
             for v in p.eta.iter().flatten().chain(&o.q_final).chain(&o.end_pose.position).chain(&scalars) {

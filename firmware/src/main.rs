@@ -20,7 +20,7 @@ use cortex_m_rt::entry;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::OutputPin;
 use reactionless::block::decode;
-use reactionless::{Error, Planner, Progress, Rollout, Status, TrajectoryDigest};
+use reactionless::{Error, Plan, Planner, Progress, Rollout, Status, Task, TrajectoryDigest};
 
 /// The flight robot's joint count and null-space dimension.
 const N: usize = 7;
@@ -92,8 +92,8 @@ fn run() -> Result<(), Error> {
     let planner = planner_slot().ok_or(Error::NotInitialized)?;
     let frame_budget = load(planner)?;
     defmt::println!("PLAN frame_budget={=u32}", frame_budget);
-    let (converged, frames) = plan(planner, frame_budget)?;
-    measure(planner, converged, frames)
+    let (plan, frames) = plan(planner, frame_budget)?;
+    measure(planner.task(), &plan, frames)
 }
 
 /// Decodes the task block and gives the planner its task, in place. Its own frame: the
@@ -102,13 +102,13 @@ fn run() -> Result<(), Error> {
 fn load(planner: &mut Planner<N, K, P>) -> Result<u32, Error> {
     let block = decode::<N>(task_block())?;
     block.load_into(planner)?;
-    Ok(block.frame_budget)
+    Ok(block.planner.frame_budget)
 }
 
 /// Plans in frames: the "planner busy" LED is on while the planner runs, a short pause
-/// separates frames. Returns whether it converged and the number of frames.
+/// separates frames. Returns the finished plan and the number of frames.
 #[inline(never)]
-fn plan(planner: &mut Planner<N, K, P>, frame_budget: u32) -> Result<(bool, u32), Error> {
+fn plan(planner: &mut Planner<N, K, P>, frame_budget: u32) -> Result<(Plan<N, K>, u32), Error> {
     let mut busy = Led::new(0);
     let mut delay = Delay;
     let mut frames: u32 = 0;
@@ -121,20 +121,15 @@ fn plan(planner: &mut Planner<N, K, P>, frame_budget: u32) -> Result<(bool, u32)
         frames += 1;
         match s {
             Status::Running(_) => delay.delay_us(1),
-            Status::Converged(_) => return Ok((true, frames)),
-            Status::Exhausted(_) => return Ok((false, frames)),
+            Status::Finished(plan) => return Ok((plan, frames)),
         }
     }
 }
 
 /// Re-runs the plan's rollout (timed), its digest and one step (timed), and reports.
 #[inline(never)]
-fn measure(planner: &mut Planner<N, K, P>, converged: bool, frames: u32) -> Result<(), Error> {
-    let plan = match planner.step(1, &mut ())? {
-        Status::Converged(p) | Status::Exhausted(p) => p,
-        Status::Running(_) => return Err(Error::NotInitialized),
-    };
-    let task = planner.task();
+fn measure(task: &Task<N, K>, plan: &Plan<N, K>, frames: u32) -> Result<(), Error> {
+    let converged = plan.converged();
     rl_mark_rollout_begin();
     let again = task.rollout(&plan.eta, &mut ())?;
     rl_mark_rollout_end();

@@ -16,7 +16,7 @@ fuzz_target!(|data: &[u8]| {
         let n = lt.chain.dof();
         if n == 7 {
             let _ = lt.task::<7, 4>();
-            let _ = lt.planner(64, None, None);
+            let _ = lt.planner(64, &host_sim::taskfile::Overrides::default());
         } else if n == 6 {
             let _ = lt.task::<6, 3>();
         }

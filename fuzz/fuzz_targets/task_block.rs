@@ -22,9 +22,9 @@ fn exercise(data: &[u8]) {
     }
     // Bounded work: at most 20 frames of at most 1500 steps.
     for _ in 0..20 {
-        match planner.step(block.frame_budget.clamp(1, 1500), &mut ()) {
+        match planner.step(block.planner.frame_budget.clamp(1, 1500), &mut ()) {
             Ok(Status::Running(_)) => {}
-            Ok(Status::Converged(p) | Status::Exhausted(p)) => {
+            Ok(Status::Finished(p)) => {
                 let scalars = [p.outcome.f, p.outcome.phi, p.outcome.g];
                 for v in p
                     .eta

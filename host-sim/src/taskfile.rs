@@ -6,10 +6,7 @@
 
 use crate::error::CliError;
 use crate::urdf::{self, Chain};
-use reactionless::{
-    Error as CoreError, Motion, Param, PlannerConfig, Pose, RefineConfig, Robot, StagnationConfig,
-    SwarmConfig, Task,
-};
+use reactionless::{Error as CoreError, Motion, Param, PlannerConfig, Pose, Robot, Task};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -25,9 +22,9 @@ pub struct TaskFile {
     pub target: TargetSection,
     /// `[motion]`.
     pub motion: MotionSection,
-    /// `[planner]` (defaults: spec §7).
+    /// `[planner]`: the core's settings, read straight into them (defaults: spec §7).
     #[serde(default)]
-    pub planner: PlannerSection,
+    pub planner: PlannerConfig,
     /// `[check]`: thresholds of `host-sim check`.
     #[serde(default)]
     pub check: CheckSection,
@@ -92,89 +89,6 @@ pub struct MotionSection {
 
 fn default_n() -> u32 {
     1
-}
-
-/// `[planner]`: C-PSO settings (spec §7).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct PlannerSection {
-    /// Swarm size T.
-    pub particles: u32,
-    /// m_max.
-    pub max_iterations: u32,
-    /// Cognitive factor c1.
-    pub c1: f64,
-    /// Social factor c2.
-    pub c2: f64,
-    /// Inertia weight at the first iteration.
-    pub w_max: f64,
-    /// Inertia weight at the last iteration.
-    pub w_min: f64,
-    /// σ_e on f (m and rad mixed).
-    pub tolerance: f64,
-    /// Initial positions uniform in [−B, B]^(2K).
-    pub eta_bound: f64,
-    /// Seed of the xoshiro256++ stream.
-    pub seed: u64,
-    /// Refine after C-PSO until f ≤ this (absent: no refinement).
-    pub refine_tolerance: Option<f64>,
-    /// Most rollouts refinement may spend.
-    pub refine_max_rollouts: u32,
-    /// Integration steps the flight software gives the planner per frame (`target`,
-    /// `frames` default).
-    pub frame_budget: u32,
-    /// `[planner.stagnation]`.
-    pub stagnation: StagnationSection,
-}
-
-impl Default for PlannerSection {
-    /// The core's spec §7 reference settings (one source for the defaults).
-    fn default() -> Self {
-        let p = PlannerConfig::reference(1);
-        let s = &p.swarm;
-        Self {
-            particles: s.particles,
-            max_iterations: s.max_iterations,
-            c1: s.c1,
-            c2: s.c2,
-            w_max: s.w_max,
-            w_min: s.w_min,
-            tolerance: p.tolerance,
-            eta_bound: s.eta_bound,
-            seed: p.seed,
-            refine_tolerance: None,
-            refine_max_rollouts: 400,
-            frame_budget: 3000,
-            stagnation: StagnationSection::default(),
-        }
-    }
-}
-
-/// `[planner.stagnation]`: the alarm of §5.2.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct StagnationSection {
-    /// Iterations over which gbest must improve.
-    pub window: u32,
-    /// Relative improvement below which the swarm counts as stagnating.
-    pub min_relative_improvement: f64,
-    /// Re-initialisation spread around gbest (S1).
-    pub eps1: f64,
-    /// Inertia boost (S2).
-    pub eps2: f64,
-}
-
-impl Default for StagnationSection {
-    /// The core's spec §7 reference alarm.
-    fn default() -> Self {
-        let s = PlannerConfig::reference(1).swarm.stagnation;
-        Self {
-            window: s.window,
-            min_relative_improvement: s.min_relative_improvement,
-            eps1: s.eps1,
-            eps2: s.eps2,
-        }
-    }
 }
 
 /// A parsed task file with its robot.
@@ -430,94 +344,98 @@ impl LoadedTask {
         })
     }
 
-    /// The planner settings of `[planner]`, with optional overrides from the command line,
-    /// validated against a swarm capacity of `capacity`.
+    /// The planner settings of `[planner]`, with the command line's overrides applied,
+    /// validated against a swarm capacity of `capacity`. An error names the flag when the
+    /// bad value came from the command line, else the task file's key.
     pub fn planner(
         &self,
         capacity: usize,
-        seed: Option<u64>,
-        refine_tolerance: Option<f64>,
+        overrides: &Overrides,
     ) -> Result<PlannerConfig, CliError> {
-        let p = &self.file.planner;
-        let st = &p.stagnation;
-        if p.frame_budget == 0 {
-            return Err(self.err("[planner] frame_budget = 0 must be at least 1 integration step"));
+        let mut config = self.file.planner;
+        if let Some(s) = overrides.seed {
+            config.seed = s;
         }
-        let refine_tolerance = refine_tolerance.or(p.refine_tolerance);
-        let config = PlannerConfig {
-            swarm: SwarmConfig {
-                particles: p.particles,
-                max_iterations: p.max_iterations,
-                c1: p.c1,
-                c2: p.c2,
-                w_max: p.w_max,
-                w_min: p.w_min,
-                eta_bound: p.eta_bound,
-                stagnation: StagnationConfig {
-                    window: st.window,
-                    min_relative_improvement: st.min_relative_improvement,
-                    eps1: st.eps1,
-                    eps2: st.eps2,
-                },
-            },
-            tolerance: p.tolerance,
-            seed: seed.unwrap_or(p.seed),
-            refine: refine_tolerance.map(|tolerance| RefineConfig {
-                tolerance,
-                max_rollouts: p.refine_max_rollouts,
-            }),
-        };
+        if let Some(r) = overrides.refine_tolerance {
+            config.refine_tolerance = Some(r);
+        }
         config.validate(capacity).map_err(|e| {
-            let (key, value): (&str, String) = match e {
-                CoreError::NotFinite(q) | CoreError::NotPositive(q) | CoreError::Negative(q) => {
-                    match q {
-                        Param::Particles => ("particles", p.particles.to_string()),
-                        Param::MaxIterations => ("max_iterations", p.max_iterations.to_string()),
-                        Param::C1 => ("c1", p.c1.to_string()),
-                        Param::C2 => ("c2", p.c2.to_string()),
-                        Param::WMax => ("w_max", p.w_max.to_string()),
-                        Param::WMin => ("w_min", p.w_min.to_string()),
-                        Param::Tolerance => ("tolerance", p.tolerance.to_string()),
-                        Param::EtaBound => ("eta_bound", p.eta_bound.to_string()),
-                        Param::StagnationWindow => ("stagnation.window", st.window.to_string()),
-                        Param::MinImprovement => (
-                            "stagnation.min_relative_improvement",
-                            st.min_relative_improvement.to_string(),
-                        ),
-                        Param::Eps1 => ("stagnation.eps1", st.eps1.to_string()),
-                        Param::Eps2 => ("stagnation.eps2", st.eps2.to_string()),
-                        Param::RefineTolerance => (
-                            "refine_tolerance",
-                            format!("{}", refine_tolerance.unwrap_or(f64::NAN)),
-                        ),
-                        Param::RefineRollouts => {
-                            ("refine_max_rollouts", p.refine_max_rollouts.to_string())
-                        }
-                        _ => ("?", String::new()),
-                    }
-                }
-                CoreError::CapacityExceeded {
-                    param: Param::StagnationWindow,
-                    ..
-                } => ("stagnation.window", st.window.to_string()),
-                CoreError::CapacityExceeded { .. } => ("particles", p.particles.to_string()),
-                CoreError::InertiaWeightsInverted => {
-                    ("w_min", format!("{} (w_max = {})", p.w_min, p.w_max))
-                }
-                _ => ("?", String::new()),
-            };
-            let why = match e {
-                CoreError::NotFinite(_) => "is not a finite number".to_string(),
-                CoreError::NotPositive(_) => "must be > 0".to_string(),
-                CoreError::Negative(_) => "must not be negative".to_string(),
-                CoreError::CapacityExceeded { capacity, .. } => {
-                    format!("exceeds the capacity of {capacity}")
-                }
-                CoreError::InertiaWeightsInverted => "must not exceed w_max".to_string(),
-                other => other.to_string(),
-            };
-            self.err(format!("[planner] {key} = {value} {why}"))
+            let flag = e.param().and_then(|p| overrides.flag_for(p));
+            match flag {
+                Some(flag) => CliError::input(format!("{flag}: {}", reason(&e, &config))),
+                None => self.err(setting_error(&e, &config)),
+            }
         })?;
         Ok(config)
+    }
+}
+
+/// Command-line values that replace task-file settings.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Overrides {
+    /// `--seed`.
+    pub seed: Option<u64>,
+    /// `--refine-tolerance`.
+    pub refine_tolerance: Option<f64>,
+}
+
+impl Overrides {
+    /// The flag that set `param`, if the command line set it.
+    fn flag_for(&self, param: Param) -> Option<String> {
+        match param {
+            Param::RefineTolerance => self
+                .refine_tolerance
+                .map(|v| format!("--refine-tolerance {v}")),
+            _ => None,
+        }
+    }
+}
+
+/// The value of `key` (dotted, below `[planner]`) in the effective settings, as text.
+fn setting_value(config: &PlannerConfig, key: &str) -> String {
+    let Ok(toml::Value::Table(table)) = toml::Value::try_from(config) else {
+        return "?".into();
+    };
+    let mut value = toml::Value::Table(table);
+    for part in key.split('.') {
+        match value.get(part) {
+            Some(v) => value = v.clone(),
+            None => return "?".into(),
+        }
+    }
+    value.to_string()
+}
+
+/// Why a setting was rejected, without naming it.
+fn reason(e: &CoreError, config: &PlannerConfig) -> String {
+    match e {
+        CoreError::NotFinite(_) => "is not a finite number".into(),
+        CoreError::NotPositive(_) => "must be > 0".into(),
+        CoreError::Negative(_) => "must not be negative".into(),
+        CoreError::CapacityExceeded { capacity, .. } => {
+            format!("exceeds the capacity of {capacity}")
+        }
+        CoreError::InertiaWeightsInverted => format!("must not exceed w_max = {}", config.w_max),
+        other => other.to_string(),
+    }
+}
+
+/// `[table] key = value why` for a rejected planner setting, from [`Param::key`].
+fn setting_error(e: &CoreError, config: &PlannerConfig) -> String {
+    let param = match e {
+        CoreError::InertiaWeightsInverted => Some(Param::WMin),
+        other => other.param(),
+    };
+    match param.and_then(|p| p.key()) {
+        Some(path) => {
+            let (table, key) = path.rsplit_once('.').unwrap_or(("planner", path));
+            let below = path.strip_prefix("planner.").unwrap_or(path);
+            format!(
+                "[{table}] {key} = {} {}",
+                setting_value(config, below),
+                reason(e, config)
+            )
+        }
+        None => format!("[planner]: {e}"),
     }
 }

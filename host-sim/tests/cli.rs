@@ -494,7 +494,7 @@ fn bad_planner_settings_are_named() {
     );
     plan_rejects(
         |s| s.replace("window = 10", "window = 100"),
-        &["stagnation.window = 100"],
+        &["[planner.stagnation] window = 100"],
     );
     plan_rejects(|s| s.replace("seed = 1", "seed = -1"), &["seed"]);
     plan_rejects(

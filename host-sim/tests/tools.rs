@@ -418,7 +418,7 @@ fn task_blocks_round_trip_through_the_core() {
         block.q0,
         reactionless::reference::Q0_DEG.map(f64::to_radians)
     );
-    assert_eq!(block.frame_budget, 3000);
+    assert_eq!(block.planner.frame_budget, 3000);
     assert_eq!(block.planner.seed, 1);
     let mut planner: Box<reactionless::Planner<7, 4, 64>> = Box::new(reactionless::Planner::IDLE);
     block.load_into(&mut planner).unwrap();

@@ -8,7 +8,7 @@
 use crate::cmd::campaign::median;
 use crate::cmd::plan::{HOST_CAPACITY, plan};
 use crate::error::CliError;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use reactionless::{Progress, Rollout, Status};
 use serde::Serialize;
@@ -74,11 +74,16 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
     let mut eta = None;
     // Seed 1 twice: the first run is the warm-up and provides the η timed below.
     for seed in std::iter::once(1).chain(1..=10) {
-        let config = lt.planner(HOST_CAPACITY, Some(seed), None)?;
+        let config = lt.planner(
+            HOST_CAPACITY,
+            &Overrides {
+                seed: Some(seed),
+                ..Overrides::default()
+            },
+        )?;
         let done = plan::<N, K>(lt, config, false)?;
         let (p, converged) = match done.status {
-            Status::Converged(p) => (p, true),
-            Status::Exhausted(p) => (p, false),
+            Status::Finished(p) => (p, p.converged()),
             Status::Running(_) => return Err(CliError::internal("planner still running")),
         };
         if eta.is_none() {

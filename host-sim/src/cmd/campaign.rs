@@ -11,7 +11,7 @@ use crate::cmd::plan::{HOST_CAPACITY, plan};
 use crate::cmd::rollout::write_rollout;
 use crate::error::CliError;
 use crate::output::OutDir;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -71,12 +71,17 @@ pub fn parse_seeds(s: &str) -> Result<Vec<u64>, String> {
 }
 
 fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run, CliError> {
-    let config = lt.planner(HOST_CAPACITY, Some(seed), None)?;
+    let config = lt.planner(
+        HOST_CAPACITY,
+        &Overrides {
+            seed: Some(seed),
+            ..Overrides::default()
+        },
+    )?;
     let task = lt.task::<N, K>()?;
     let done = plan::<N, K>(lt, config, false)?;
     let (converged, p) = match done.status {
-        Status::Converged(p) => (true, p),
-        Status::Exhausted(p) => (false, p),
+        Status::Finished(p) => (p.converged(), p),
         Status::Running(_) => return Err(CliError::internal("planner still running")),
     };
     let truth = write_rollout(&task, &p.eta, None, false)?.truth;
@@ -195,7 +200,7 @@ pub fn run(
         .collect::<Result<_, _>>()?;
     // Validate every task and its planner settings before anything runs.
     for lt in &loaded {
-        lt.planner(HOST_CAPACITY, None, None)?;
+        lt.planner(HOST_CAPACITY, &Overrides::default())?;
         with_dims!(lt.chain.dof(), validate, lt)?;
     }
     let pool = rayon::ThreadPoolBuilder::new()

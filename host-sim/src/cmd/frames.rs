@@ -7,7 +7,7 @@
 
 use crate::cmd::plan::HOST_CAPACITY;
 use crate::error::CliError;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use reactionless::{Planner, Status};
 use serde::Serialize;
@@ -87,7 +87,7 @@ fn frames_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     budget: u32,
 ) -> Result<FramesJson, CliError> {
-    let config = lt.planner(HOST_CAPACITY, None, None)?;
+    let config = lt.planner(HOST_CAPACITY, &Overrides::default())?;
     let mut planner: Box<Planner<N, K, HOST_CAPACITY>> = Box::new(
         Planner::new(lt.task::<N, K>()?, config)
             .map_err(|e| CliError::input(format!("planner: {e}")))?,
@@ -109,8 +109,7 @@ fn frames_n<const N: usize, const K: usize>(
         }
     };
     let (converged, plan) = match status {
-        Status::Converged(p) => (true, p),
-        Status::Exhausted(p) => (false, p),
+        Status::Finished(p) => (p.converged(), p),
         Status::Running(_) => return Err(CliError::internal("still running")),
     };
     Ok(FramesJson {

@@ -8,7 +8,7 @@
 use crate::cmd::rollout::{self, PoseJson};
 use crate::error::CliError;
 use crate::output::OutDir;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use indicatif::{ProgressBar, ProgressStyle};
 use reactionless::{Event, Planner, PlannerConfig, RefineStop, Status};
@@ -123,7 +123,7 @@ pub fn plan<const N: usize, const K: usize>(
     let mut planner: Box<Planner<N, K, HOST_CAPACITY>> =
         Box::new(Planner::new(task, config).map_err(|e| CliError::input(format!("planner: {e}")))?);
     let bar = if progress && std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(u64::from(config.swarm.max_iterations));
+        let b = ProgressBar::new(u64::from(config.max_iterations));
         b.set_style(
             ProgressStyle::with_template("{spinner} {elapsed} [{bar:30}] gen {pos}/{len} {msg}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -187,12 +187,17 @@ fn run_n<const N: usize, const K: usize>(
         refine,
         plots,
     } = options;
-    let config = lt.planner(HOST_CAPACITY, seed, refine)?;
+    let config = lt.planner(
+        HOST_CAPACITY,
+        &Overrides {
+            seed,
+            refine_tolerance: refine,
+        },
+    )?;
     let task = lt.task::<N, K>()?;
     let done = plan::<N, K>(lt, config, true)?;
     let (converged, p) = match done.status {
-        Status::Converged(p) => (true, p),
-        Status::Exhausted(p) => (false, p),
+        Status::Finished(p) => (p.converged(), p),
         Status::Running(_) => return Err(CliError::internal("planner still running")),
     };
     let dir = OutDir::create(out)?;
@@ -211,7 +216,7 @@ fn run_n<const N: usize, const K: usize>(
         lt,
         &dir,
         Some(config.seed),
-        config.refine.map(|r| r.tolerance),
+        config.refine().map(|r| r.tolerance),
     )?;
     if let Some(trace) = run.trace {
         rollout::write_figures(lt, &task, trace, Some(done.history.clone()), &dir)?;
@@ -237,7 +242,7 @@ fn run_n<const N: usize, const K: usize>(
         best_f_history: done.history,
         swarm_f: p.swarm_f,
         refine: p.refine.map(|r| RefineJson {
-            tolerance: config.refine.map_or(f64::NAN, |c| c.tolerance),
+            tolerance: config.refine().map_or(f64::NAN, |c| c.tolerance),
             stop: stop_name(r.stop),
             iterations: r.iterations,
             rollouts: r.rollouts,

@@ -19,7 +19,7 @@
 use crate::cmd::plan::{HOST_CAPACITY, plan};
 use crate::cmd::rollout::eta_error;
 use crate::error::CliError;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use reactionless::{Rollout, Status, TrajectoryDigest};
 use serde::{Deserialize, Serialize};
@@ -169,12 +169,18 @@ pub fn outputs_of<const N: usize, const K: usize>(
     seed: Option<u64>,
     refine: Option<f64>,
 ) -> Result<(Outputs, u64, Option<f64>), CliError> {
-    let config = lt.planner(HOST_CAPACITY, seed, refine)?;
+    let config = lt.planner(
+        HOST_CAPACITY,
+        &Overrides {
+            seed,
+            refine_tolerance: refine,
+        },
+    )?;
     let task = lt.task::<N, K>()?;
     let done = plan::<N, K>(lt, config, false)?;
     let (status, p) = match done.status {
-        Status::Converged(p) => ("converged", p),
-        Status::Exhausted(p) => ("not_converged", p),
+        Status::Finished(p) if p.converged() => ("converged", p),
+        Status::Finished(p) => ("not_converged", p),
         Status::Running(_) => return Err(CliError::internal("planner still running")),
     };
     let mut digest = TrajectoryDigest::new();
@@ -207,7 +213,7 @@ pub fn outputs_of<const N: usize, const K: usize>(
             f: o.f,
         },
         config.seed,
-        config.refine.map(|r| r.tolerance),
+        config.refine().map(|r| r.tolerance),
     ))
 }
 

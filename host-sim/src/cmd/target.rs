@@ -20,7 +20,7 @@
 use crate::cmd::plan::HOST_CAPACITY;
 use crate::cmd::record::{Outputs, PoseBits, bits, first_difference};
 use crate::error::CliError;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use object::{Object, ObjectSection, ObjectSymbol};
 use reactionless::Pose;
 use reactionless::block::{TaskBlock, block_len, encode};
@@ -100,7 +100,7 @@ pub fn task_block(lt: &LoadedTask) -> Result<Vec<u8>, CliError> {
     }
     // Validate everything the image will validate, with the host's messages.
     let task = lt.task::<7, 4>()?;
-    let planner = lt.planner(FLIGHT_P, None, None)?;
+    let planner = lt.planner(FLIGHT_P, &Overrides::default())?;
     let block = TaskBlock::<7> {
         robot: lt.chain.desc::<7>()?,
         q0: *task.start(),
@@ -112,7 +112,6 @@ pub fn task_block(lt: &LoadedTask) -> Result<Vec<u8>, CliError> {
         dt_s: lt.file.motion.dt_s,
         n: lt.file.motion.n,
         planner,
-        frame_budget: lt.file.planner.frame_budget,
     };
     let mut buf = vec![0u8; block_len(7)];
     encode(&block, &mut buf).map_err(|e| CliError::internal(e.to_string()))?;

@@ -1,0 +1,246 @@
+//! Every planner setting, in one place: what a task file's `[planner]` table holds.
+//!
+//! Owns [`PlannerConfig`], [`StagnationConfig`] and [`RefineConfig`] (the refinement
+//! settings [`PlannerConfig::refine`] derives from the flat keys). The fields are the task file's keys
+//! (`[planner] particles = 40`, `[planner.stagnation] window = 10`); the defaults are the
+//! spec §7 values ([`PlannerConfig::reference`]). With the optional `serde` feature the
+//! types derive `Deserialize` (and `Serialize`) with `deny_unknown_fields`, so a host reads
+//! a task file straight into them, and every error of [`PlannerConfig::validate`] names
+//! the bad setting as a [`Param`] whose [`Param::key`] is its task-file key.
+//!
+//! A new setting touches this file, the task block layout ([`crate::block`]) and the
+//! documentation, nothing else.
+
+use crate::error::{Error, Param};
+
+/// Longest stagnation window (generations).
+pub const MAX_WINDOW: usize = 64;
+
+/// The planner's settings (spec §7 unless noted). Validate with [`PlannerConfig::validate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(deny_unknown_fields, default)
+)]
+pub struct PlannerConfig {
+    /// Swarm size T, `1..=P` (the planner's capacity).
+    pub particles: u32,
+    /// m_max ≥ 1: generations after the initial one.
+    pub max_iterations: u32,
+    /// Cognitive factor c1 ≥ 0.
+    pub c1: f64,
+    /// Social factor c2 ≥ 0.
+    pub c2: f64,
+    /// Inertia weight ω at the first generation.
+    pub w_max: f64,
+    /// ω at generation m_max, `0 ≤ w_min ≤ w_max`.
+    pub w_min: f64,
+    /// σ_e (f, metres and radians mixed): success when a feasible candidate has
+    /// `f ≤ tolerance` (> 0).
+    pub tolerance: f64,
+    /// Initial positions are uniform in `[−B, B]^(2K)`, B > 0.
+    pub eta_bound: f64,
+    /// Seed of the random stream.
+    pub seed: u64,
+    /// Refine after success until `f ≤ refine_tolerance` (> 0); `None`: no refinement.
+    pub refine_tolerance: Option<f64>,
+    /// Most rollouts refinement may spend (≥ 1).
+    pub refine_max_rollouts: u32,
+    /// Integration steps the flight software gives [`crate::Planner::step`] per frame
+    /// (≥ 1). The planner does not read it; the task block carries it to the driver.
+    pub frame_budget: u32,
+    /// The stagnation alarm (`[planner.stagnation]`).
+    pub stagnation: StagnationConfig,
+}
+
+/// The stagnation alarm of paper §5.2 (`[planner.stagnation]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(deny_unknown_fields, default)
+)]
+pub struct StagnationConfig {
+    /// Generations over which gbest must improve, `1..=MAX_WINDOW`.
+    pub window: u32,
+    /// Relative improvement below which the swarm stagnates (≥ 0; 0 disables the alarm).
+    pub min_relative_improvement: f64,
+    /// Spread ε₁ ≥ 0 of the S1 restart around gbest.
+    pub eps1: f64,
+    /// Inertia boost ε₂ of S2 (its magnitude is used).
+    pub eps2: f64,
+}
+
+impl Default for PlannerConfig {
+    /// [`PlannerConfig::reference`] with seed 1.
+    fn default() -> Self {
+        Self::reference(1)
+    }
+}
+
+impl Default for StagnationConfig {
+    /// The spec §7 alarm: window 10, 1e-3, ε₁ = 0.5, ε₂ = 0.3.
+    fn default() -> Self {
+        Self::REFERENCE
+    }
+}
+
+impl StagnationConfig {
+    /// The spec §7 alarm: window 10, 1e-3, ε₁ = 0.5, ε₂ = 0.3.
+    pub const REFERENCE: Self = Self {
+        window: 10,
+        min_relative_improvement: 1e-3,
+        eps1: 0.5,
+        eps2: 0.3,
+    };
+}
+
+impl PlannerConfig {
+    /// The spec §7 settings: 40 particles, m_max = 200, c1 = c2 = 1.49618, ω 0.9 → 0.4,
+    /// σ_e = 0.05, B = 5, no refinement (400 rollouts if enabled), the reference alarm,
+    /// and a frame budget of 3000 integration steps (one reference rollout).
+    #[must_use]
+    pub const fn reference(seed: u64) -> Self {
+        Self {
+            particles: 40,
+            max_iterations: 200,
+            c1: 1.49618,
+            c2: 1.49618,
+            w_max: 0.9,
+            w_min: 0.4,
+            tolerance: 0.05,
+            eta_bound: 5.0,
+            seed,
+            refine_tolerance: None,
+            refine_max_rollouts: 400,
+            frame_budget: 3000,
+            stagnation: StagnationConfig::REFERENCE,
+        }
+    }
+
+    /// Checks every setting against a capacity of `capacity` particles.
+    ///
+    /// # Errors
+    /// The first bad setting, named by its [`Param`] (whose [`Param::key`] is the task
+    /// file's key).
+    ///
+    /// ```
+    /// use reactionless::{Error, Param, PlannerConfig};
+    /// let mut c = PlannerConfig::reference(1);
+    /// c.particles = 0;
+    /// assert_eq!(c.validate(64), Err(Error::NotPositive(Param::Particles)));
+    /// assert_eq!(Param::Particles.key(), Some("planner.particles"));
+    /// ```
+    pub fn validate(&self, capacity: usize) -> Result<(), Error> {
+        if self.particles == 0 {
+            return Err(Error::NotPositive(Param::Particles));
+        }
+        if self.particles as usize > capacity {
+            return Err(Error::CapacityExceeded {
+                param: Param::Particles,
+                requested: self.particles,
+                capacity: capacity.min(u32::MAX as usize) as u32,
+            });
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::NotPositive(Param::MaxIterations));
+        }
+        let s = &self.stagnation;
+        for (v, p) in [
+            (self.c1, Param::C1),
+            (self.c2, Param::C2),
+            (self.w_max, Param::WMax),
+            (self.w_min, Param::WMin),
+            (s.min_relative_improvement, Param::MinImprovement),
+            (s.eps1, Param::Eps1),
+        ] {
+            if !v.is_finite() {
+                return Err(Error::NotFinite(p));
+            }
+            if v < 0.0 {
+                return Err(Error::Negative(p));
+            }
+        }
+        if !s.eps2.is_finite() {
+            return Err(Error::NotFinite(Param::Eps2));
+        }
+        if self.w_min > self.w_max {
+            return Err(Error::InertiaWeightsInverted);
+        }
+        for (v, p) in [
+            (self.eta_bound, Param::EtaBound),
+            (self.tolerance, Param::Tolerance),
+        ] {
+            if !v.is_finite() {
+                return Err(Error::NotFinite(p));
+            }
+            if v <= 0.0 {
+                return Err(Error::NotPositive(p));
+            }
+        }
+        if s.window == 0 {
+            return Err(Error::NotPositive(Param::StagnationWindow));
+        }
+        if s.window as usize > MAX_WINDOW {
+            return Err(Error::CapacityExceeded {
+                param: Param::StagnationWindow,
+                requested: s.window,
+                capacity: MAX_WINDOW as u32,
+            });
+        }
+        if let Some(r) = self.refine() {
+            r.validate()?;
+        }
+        if self.frame_budget == 0 {
+            return Err(Error::NotPositive(Param::FrameBudget));
+        }
+        Ok(())
+    }
+
+    /// The refinement settings, if refinement is on.
+    #[must_use]
+    pub fn refine(&self) -> Option<RefineConfig> {
+        self.refine_tolerance.map(|tolerance| RefineConfig {
+            tolerance,
+            max_rollouts: self.refine_max_rollouts,
+        })
+    }
+
+    /// ω(m) = ω_max − m (ω_max − ω_min)/m_max (eq. 22).
+    #[must_use]
+    pub fn inertia_weight(&self, m: u32) -> f64 {
+        self.w_max - f64::from(m) * (self.w_max - self.w_min) / f64::from(self.max_iterations)
+    }
+}
+
+/// Refinement settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefineConfig {
+    /// Target on f (> 0), e.g. 1e-6.
+    pub tolerance: f64,
+    /// Most rollouts refinement may spend (≥ 1).
+    pub max_rollouts: u32,
+}
+
+impl RefineConfig {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// A non-finite or non-positive tolerance; a zero rollout budget.
+    pub fn validate(&self) -> Result<(), Error> {
+        if !self.tolerance.is_finite() {
+            return Err(Error::NotFinite(Param::RefineTolerance));
+        }
+        if self.tolerance <= 0.0 {
+            return Err(Error::NotPositive(Param::RefineTolerance));
+        }
+        if self.max_rollouts == 0 {
+            return Err(Error::NotPositive(Param::RefineRollouts));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,157 @@
+//! The seam between the planner and the optimizers that search η: ask for a candidate,
+//! tell the outcome of its rollout.
+//!
+//! Owns the [`Optimizer`] trait and what crosses it: [`Candidate`] (the η to evaluate and
+//! the violation cap above which its result cannot matter), [`Evaluation`] (how its
+//! rollout ended), [`Next`] and [`Stop`] (whether the optimizer is done, and how), and the
+//! [`Event`]s an optimizer reports to an [`Observer`]. An optimizer never runs a rollout:
+//! the planner ([`crate::planner`]) evaluates every candidate under its budget, so each
+//! optimizer is resumable and budgeted for free. The C-PSO of the paper
+//! ([`crate::cpso::Cpso`]) and the Levenberg–Marquardt refinement
+//! ([`crate::refine::Refiner`]) implement it; a new strategy is one more implementation.
+//!
+//! Contract: the planner calls [`Optimizer::candidate`], evaluates it, then calls
+//! [`Optimizer::absorb`] exactly once with the evaluation, until `absorb` returns
+//! [`Next::Done`]. Every random draw an optimizer makes happens inside `absorb`, from the
+//! planner's one stream, at points the optimizer documents (golden records depend on them).
+
+use crate::error::Error;
+use crate::random::Stream;
+use crate::rollout::Outcome;
+use crate::swarm::Cost;
+
+/// What the planner evaluates next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate<const K: usize> {
+    /// η as pairs `(a_i, b_i)`.
+    pub eta: [[f64; 2]; K],
+    /// Violation cap (rad): a rollout whose Φ exceeds it may be stopped early
+    /// ([`crate::Rollout::with_violation_cap`]) because its result cannot change any
+    /// decision of the optimizer; `f64::INFINITY` never stops early.
+    pub cap: f64,
+}
+
+/// How the rollout of a candidate ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Evaluation<const N: usize> {
+    /// It finished.
+    Finished(Outcome<N>),
+    /// It was stopped with Φ of its samples so far (rad, a lower bound of the whole
+    /// rollout's Φ) above the candidate's cap.
+    Abandoned(f64),
+    /// It failed (rank loss, non-finite state) or η was rejected before integration.
+    Failed(Error),
+}
+
+impl<const N: usize> Evaluation<N> {
+    /// The cost the evaluation establishes: the outcome's, a lower bound (Φ, f = ∞) for an
+    /// abandoned rollout, [`Cost::FAILED`] for a failed one.
+    #[must_use]
+    pub fn cost(&self) -> Cost {
+        match self {
+            Evaluation::Finished(o) => Cost { phi: o.phi, f: o.f },
+            Evaluation::Abandoned(phi) => Cost {
+                phi: *phi,
+                f: f64::INFINITY,
+            },
+            Evaluation::Failed(_) => Cost::FAILED,
+        }
+    }
+
+    /// The outcome, if the rollout finished.
+    #[must_use]
+    pub fn outcome(&self) -> Option<&Outcome<N>> {
+        match self {
+            Evaluation::Finished(o) => Some(o),
+            Evaluation::Abandoned(_) | Evaluation::Failed(_) => None,
+        }
+    }
+}
+
+/// How an optimizer ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Stop {
+    /// The last candidate is feasible (Φ = 0) with `f` within the tolerance.
+    Converged,
+    /// The optimizer's budget is spent: the planner reports the best point it evaluated.
+    Exhausted,
+}
+
+/// What an optimizer says after absorbing an evaluation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Next {
+    /// Evaluate [`Optimizer::candidate`] next.
+    Continue,
+    /// Finished.
+    Done(Stop),
+}
+
+/// An ask/tell optimizer of η for `N` joints and null-space dimension `K`.
+pub trait Optimizer<const N: usize, const K: usize> {
+    /// The candidate to evaluate next (the same until [`Optimizer::absorb`] is called).
+    fn candidate(&self) -> Candidate<K>;
+
+    /// Takes the evaluation of [`Optimizer::candidate`]; may draw from `stream` and report
+    /// to `observer`.
+    fn absorb<O: Observer>(
+        &mut self,
+        evaluation: &Evaluation<N>,
+        stream: &mut Stream,
+        observer: &mut O,
+    ) -> Next;
+
+    /// Where the optimizer is, for progress reports: its iteration and the index of the
+    /// candidate within it.
+    fn progress(&self) -> (u32, u32);
+}
+
+/// Something the planner did, for logs and histories.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Event {
+    /// A generation was evaluated completely.
+    Generation {
+        /// Its number (0 = initial).
+        iteration: u32,
+        /// gbest's cost after it.
+        best: Cost,
+        /// Rollouts so far.
+        rollouts: u32,
+    },
+    /// The stagnation alarm fired after generation `iteration`.
+    Stagnation {
+        /// The generation.
+        iteration: u32,
+    },
+    /// C-PSO met σ_e during generation `iteration`.
+    SwarmConverged {
+        /// The generation.
+        iteration: u32,
+        /// f of the successful particle.
+        f: f64,
+    },
+    /// A refinement trial was evaluated.
+    RefineTrial {
+        /// f of the best point after the trial.
+        f: f64,
+        /// Damping after the trial.
+        lambda: f64,
+    },
+}
+
+/// Receives planner events. Implemented for `()` (discard) and `FnMut(&Event)`.
+pub trait Observer {
+    /// Called as things happen.
+    fn event(&mut self, e: &Event);
+}
+
+impl Observer for () {
+    fn event(&mut self, _: &Event) {}
+}
+
+impl<F: FnMut(&Event)> Observer for F {
+    fn event(&mut self, e: &Event) {
+        self(e);
+    }
+}

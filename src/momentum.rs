@@ -66,6 +66,25 @@ fn backward_pass<const N: usize>(
     inertia
 }
 
+/// The whole pass: `H~bm` columns, subtree data and `H~b` (the arm's `Ī_1` plus the base).
+#[inline(always)]
+fn full_pass<const N: usize>(
+    robot: &Robot<N>,
+    frames: &Frames<N>,
+) -> ([Vec3; N], [Subtree; N], Sym3) {
+    let mut hbm = [Vec3::zeros(); N];
+    let mut subtrees = [Subtree {
+        mass: 0.0,
+        moment: Vec3::zeros(),
+    }; N];
+    let arm = backward_pass(robot, frames, &mut hbm, &mut subtrees);
+    let d0 = frames.base_com - frames.com;
+    let hb = arm
+        .add(&robot.base_inertia)
+        .add(&Sym3::point_mass(robot.base_mass, &d0));
+    (hbm, subtrees, hb)
+}
+
 impl<const N: usize> Momentum<N> {
     /// `H~b` and `H~bm` for the configuration of `frames`.
     ///
@@ -78,16 +97,7 @@ impl<const N: usize> Momentum<N> {
     /// ```
     #[must_use]
     pub fn new(robot: &Robot<N>, frames: &Frames<N>) -> Self {
-        let mut hbm = [Vec3::zeros(); N];
-        let mut subtrees = [Subtree {
-            mass: 0.0,
-            moment: Vec3::zeros(),
-        }; N];
-        let arm = backward_pass(robot, frames, &mut hbm, &mut subtrees);
-        let d0 = frames.base_com - frames.com;
-        let hb = arm
-            .add(&robot.base_inertia)
-            .add(&Sym3::point_mass(robot.base_mass, &d0));
+        let (hbm, _, hb) = full_pass(robot, frames);
         Self { hbm, hb }
     }
 
@@ -137,16 +147,7 @@ pub fn generalized_jacobian<const N: usize>(
     robot: &Robot<N>,
     frames: &Frames<N>,
 ) -> Result<SMatrix<f64, 6, N>, Error> {
-    let mut hbm = [Vec3::zeros(); N];
-    let mut subtrees = [Subtree {
-        mass: 0.0,
-        moment: Vec3::zeros(),
-    }; N];
-    let arm = backward_pass(robot, frames, &mut hbm, &mut subtrees);
-    let d0 = frames.base_com - frames.com;
-    let hb = arm
-        .add(&robot.base_inertia)
-        .add(&Sym3::point_mass(robot.base_mass, &d0));
+    let (hbm, subtrees, hb) = full_pass(robot, frames);
     let hb = hb.ldlt().ok_or(Error::SingularInertia)?;
     let rg = frames.com;
     let pe = frames.ee_position;

@@ -51,3 +51,26 @@ impl fmt::Display for CliError {
 }
 
 impl std::error::Error for CliError {}
+
+/// Attaches what was being done to an error, as the [`CliError`] it maps to: `.or_input(||
+/// format!("{path}: cannot read"))` gives `CliError::input("{path}: cannot read: {e}")`.
+pub trait Context<T> {
+    /// Bad input (exit code 2): `"{context}: {error}"`.
+    fn or_input<C: fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, CliError>;
+    /// A result that does not pass (exit code 1): `"{context}: {error}"`.
+    fn or_failed<C: fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, CliError>;
+    /// A broken internal invariant: `"internal error: {context}: {error}"`.
+    fn or_internal<C: fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, CliError>;
+}
+
+impl<T, E: fmt::Display> Context<T> for Result<T, E> {
+    fn or_input<C: fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, CliError> {
+        self.map_err(|e| CliError::input(format!("{}: {e}", context())))
+    }
+    fn or_failed<C: fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, CliError> {
+        self.map_err(|e| CliError::failed(format!("{}: {e}", context())))
+    }
+    fn or_internal<C: fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, CliError> {
+        self.map_err(|e| CliError::internal(format!("{}: {e}", context())))
+    }
+}

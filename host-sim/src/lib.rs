@@ -3,13 +3,22 @@
 //! Feeds the no_std core tasks from TOML and robots from URDF, writes results (CSV, JSON),
 //! and checks them. Exit codes: 0 success, 1 a result that does not pass, 2 bad input.
 //! The binary is a thin CLI over this library; tests use the library directly.
+//!
+//! Data flows one way: `taskfile`/`urdf` (inputs) → `drive` (the planner) → `artifacts`,
+//! `records`, `plots` (outputs, through `output`'s atomic writes) → `cmd/*` (one leaf per
+//! subcommand, which only these shared modules feed).
 // A host tool: an out-of-range index here is a bug that should stop the program loudly.
 #![allow(clippy::indexing_slicing)]
 
+pub mod args;
+pub mod artifacts;
 pub mod cmd;
 pub mod dispatch;
+pub mod drive;
 pub mod error;
 pub mod output;
 pub mod plots;
+pub mod records;
+pub mod stats;
 pub mod taskfile;
 pub mod urdf;

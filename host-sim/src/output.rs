@@ -1,15 +1,18 @@
-//! Writing results: atomic output directories, the trajectory CSV and number formatting.
+//! Writing results: atomic output directories and files, and the trajectory CSV.
 //!
-//! Owns [`OutDir`]: everything is written into a temporary sibling directory that is
-//! renamed into place only when the command succeeds, so an error never leaves a
-//! half-written result. An existing output directory is only replaced if host-sim made it
-//! (it holds the marker file [`MARKER`]); anything else is refused.
+//! Owns [`OutDir`]: everything is written into a temporary sibling directory
+//! (`tempfile`) that is renamed into place only when the command succeeds, so an error
+//! never leaves a half-written result. An existing output directory is only replaced if
+//! host-sim made it (it holds the marker file [`MARKER`]); anything else is refused.
+//! [`write_atomic`] does the same for a single file (records), and [`CsvSink`] streams the
+//! trajectory in shortest round-trip form (parsing gives back the core's bits).
 
-use crate::error::CliError;
+use crate::error::{CliError, Context};
 use reactionless::Sample;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use tempfile::TempDir;
 
 /// Marker file that identifies a directory written by host-sim.
 pub const MARKER: &str = ".host-sim";
@@ -18,13 +21,27 @@ pub const MARKER: &str = ".host-sim";
 #[derive(Debug)]
 pub struct OutDir {
     target: PathBuf,
-    tmp: PathBuf,
-    committed: bool,
+    tmp: TempDir,
+}
+
+/// The directory `path` lives in (`.` for a bare name).
+fn parent_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// `path`'s file name, or a bad-input error naming `what`.
+fn file_name(path: &Path, what: &str) -> Result<String, CliError> {
+    path.file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .ok_or_else(|| CliError::input(format!("{what} {}: not a file name", path.display())))
 }
 
 impl OutDir {
-    /// Prepares to write `target`. Refuses a path that exists and is not an empty directory
-    /// or an earlier host-sim output.
+    /// Prepares to write `target` (named `--out` in messages). Refuses a path that exists
+    /// and is not an empty directory or an earlier host-sim output.
     pub fn create(target: &Path) -> Result<Self, CliError> {
         let shown = target.display();
         if target.exists() {
@@ -33,8 +50,7 @@ impl OutDir {
                     "--out {shown}: exists and is not a directory"
                 )));
             }
-            let mut entries = std::fs::read_dir(target)
-                .map_err(|e| CliError::input(format!("--out {shown}: {e}")))?;
+            let mut entries = std::fs::read_dir(target).or_input(|| format!("--out {shown}"))?;
             let empty = entries.next().is_none();
             if !empty && !target.join(MARKER).exists() {
                 return Err(CliError::input(format!(
@@ -42,91 +58,84 @@ impl OutDir {
                 )));
             }
         }
-        let name = target
-            .file_name()
-            .ok_or_else(|| CliError::input(format!("--out {shown}: not a directory name")))?
-            .to_string_lossy()
-            .to_string();
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
+        let name = file_name(target, "--out")?;
+        let parent = parent_of(target);
         std::fs::create_dir_all(&parent)
-            .map_err(|e| CliError::input(format!("--out {shown}: cannot create parent: {e}")))?;
-        let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-        if tmp.exists() {
-            std::fs::remove_dir_all(&tmp).map_err(|e| {
-                CliError::input(format!("cannot clear stale {}: {e}", tmp.display()))
-            })?;
-        }
-        std::fs::create_dir(&tmp)
-            .map_err(|e| CliError::input(format!("cannot create {}: {e}", tmp.display())))?;
+            .or_input(|| format!("--out {shown}: cannot create parent"))?;
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{name}.tmp-"))
+            .tempdir_in(&parent)
+            .or_input(|| format!("--out {shown}: cannot create a temporary directory"))?;
         Ok(Self {
             target: target.to_path_buf(),
             tmp,
-            committed: false,
         })
     }
 
     /// Path of `name` inside the directory being written.
     pub fn path(&self, name: &str) -> PathBuf {
-        self.tmp.join(name)
+        self.tmp.path().join(name)
     }
 
     /// Writes a whole file.
     pub fn write(&self, name: &str, contents: &[u8]) -> Result<(), CliError> {
-        std::fs::write(self.path(name), contents)
-            .map_err(|e| CliError::input(format!("cannot write {name}: {e}")))
+        std::fs::write(self.path(name), contents).or_input(|| format!("cannot write {name}"))
     }
 
     /// Writes `value` as pretty JSON with a trailing newline.
     pub fn write_json<T: serde::Serialize>(&self, name: &str, value: &T) -> Result<(), CliError> {
-        let mut s = serde_json::to_string_pretty(value)
-            .map_err(|e| CliError::internal(format!("JSON for {name}: {e}")))?;
+        let mut s =
+            serde_json::to_string_pretty(value).or_internal(|| format!("JSON for {name}"))?;
         s.push('\n');
         self.write(name, s.as_bytes())
     }
 
-    /// Moves the finished directory into place.
-    pub fn commit(mut self) -> Result<PathBuf, CliError> {
+    /// Moves the finished directory into place (replacing an earlier host-sim output).
+    pub fn commit(self) -> Result<PathBuf, CliError> {
         self.write(MARKER, b"written by host-sim\n")?;
-        let old = self.tmp.with_file_name(format!(
-            ".{}.old-{}",
-            self.target
-                .file_name()
-                .map(|n| n.to_string_lossy().to_string())
-                .unwrap_or_default(),
-            std::process::id()
-        ));
-        let had_old = self.target.exists();
-        if had_old {
-            std::fs::rename(&self.target, &old).map_err(|e| {
-                CliError::input(format!("cannot replace {}: {e}", self.target.display()))
-            })?;
-        }
-        if let Err(e) = std::fs::rename(&self.tmp, &self.target) {
-            if had_old {
-                let _ = std::fs::rename(&old, &self.target);
+        let shown = self.target.display();
+        // The old output is moved into a temporary directory of its own first, so the
+        // rename of the new one cannot meet a non-empty directory; it goes when `old` drops.
+        let old = match self.target.exists() {
+            true => {
+                let old = tempfile::Builder::new()
+                    .prefix(".host-sim-old-")
+                    .tempdir_in(parent_of(&self.target))
+                    .or_input(|| format!("cannot replace {shown}"))?;
+                std::fs::rename(&self.target, old.path().join("out"))
+                    .or_input(|| format!("cannot replace {shown}"))?;
+                Some(old)
             }
+            false => None,
+        };
+        let tmp = self.tmp.keep();
+        if let Err(e) = std::fs::rename(&tmp, &self.target) {
+            if let Some(old) = &old {
+                let _ = std::fs::rename(old.path().join("out"), &self.target);
+            }
+            let _ = std::fs::remove_dir_all(&tmp);
             return Err(CliError::input(format!(
-                "cannot move output into {}: {e}",
-                self.target.display()
+                "cannot move output into {shown}: {e}"
             )));
         }
-        if had_old {
-            let _ = std::fs::remove_dir_all(&old);
-        }
-        self.committed = true;
-        Ok(self.target.clone())
+        Ok(self.target)
     }
 }
 
-impl Drop for OutDir {
-    fn drop(&mut self) {
-        if !self.committed {
-            let _ = std::fs::remove_dir_all(&self.tmp);
-        }
-    }
+/// Writes `contents` to `path` atomically: a temporary file beside it, then a rename.
+pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), CliError> {
+    let dir = parent_of(path);
+    std::fs::create_dir_all(&dir).or_input(|| dir.display().to_string())?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(&format!(".{}.tmp-", file_name(path, "--out")?))
+        .tempfile_in(&dir)
+        .or_input(|| path.display().to_string())?;
+    tmp.write_all(contents)
+        .or_input(|| path.display().to_string())?;
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .or_input(|| path.display().to_string())?;
+    Ok(())
 }
 
 /// Streams samples into `trajectory.csv`: header `t,q1..qN,qd1..qdN` (s, rad, rad/s).
@@ -140,8 +149,7 @@ pub struct CsvSink {
 impl CsvSink {
     /// Creates the file and writes the header for `n` joints.
     pub fn create(path: &Path, n: usize) -> Result<Self, CliError> {
-        let file = File::create(path)
-            .map_err(|e| CliError::input(format!("cannot create {}: {e}", path.display())))?;
+        let file = File::create(path).or_input(|| format!("cannot create {}", path.display()))?;
         let mut out = BufWriter::new(file);
         let mut header = String::from("t");
         for i in 1..=n {
@@ -182,8 +190,6 @@ impl CsvSink {
         if let Some(e) = self.error.take() {
             return Err(CliError::input(format!("writing trajectory.csv: {e}")));
         }
-        self.out
-            .flush()
-            .map_err(|e| CliError::input(format!("writing trajectory.csv: {e}")))
+        self.out.flush().or_input(|| "writing trajectory.csv")
     }
 }

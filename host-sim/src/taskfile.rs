@@ -4,7 +4,7 @@
 //! angles are degrees (`_deg`), everything else SI with the unit in the key name. Paths are
 //! relative to the task file. Every error names the file, the key and the value.
 
-use crate::error::CliError;
+use crate::error::{CliError, Context};
 use crate::urdf::{self, Chain};
 use reactionless::{Error as CoreError, Motion, Param, PlannerConfig, Pose, Robot, Task};
 use serde::Deserialize;
@@ -111,8 +111,8 @@ pub struct LoadedTask {
 /// Reads a task file and the URDF it names.
 pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
     let shown = path.display();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| CliError::input(format!("{shown}: cannot read task file: {e}")))?;
+    let text =
+        std::fs::read_to_string(path).or_input(|| format!("{shown}: cannot read task file"))?;
     let file: TaskFile = toml::from_str(&text)
         .map_err(|e| CliError::input(format!("{shown}: {}", one_line(&e.to_string()))))?;
     let urdf_path = path
@@ -184,8 +184,8 @@ impl LoadedTask {
         seed: Option<u64>,
         refine: Option<f64>,
     ) -> Result<(String, String), CliError> {
-        let mut table: toml::Table = toml::from_str(&self.text)
-            .map_err(|e| CliError::internal(format!("re-reading the task: {e}")))?;
+        let mut table: toml::Table =
+            toml::from_str(&self.text).or_internal(|| "re-reading the task")?;
         if let Some(toml::Value::Table(robot)) = table.get_mut("robot") {
             robot.insert("urdf".into(), toml::Value::String(BUNDLE_URDF.into()));
         }
@@ -203,8 +203,7 @@ impl LoadedTask {
                 p.insert("refine_tolerance".into(), toml::Value::Float(r));
             }
         }
-        let text = toml::to_string(&table)
-            .map_err(|e| CliError::internal(format!("writing the task: {e}")))?;
+        let text = toml::to_string(&table).or_internal(|| "writing the task")?;
         Ok((text, self.urdf_text.clone()))
     }
 

@@ -10,9 +10,9 @@
 //! Where nothing needs composing or merging, values are passed through untouched, so a URDF
 //! written like `spec/chaser7.urdf` loads to exactly the bits of [`reactionless::CHASER7`].
 
-use crate::error::CliError;
+use crate::error::{CliError, Context};
 use reactionless::geometry::{Mat3, Sym3, Vec3, matrix_rpy, rpy_matrix};
-use reactionless::{BodyDesc, Inertia, JointDesc, Origin};
+use reactionless::{BodyDesc, Inertia, JointDesc, Origin, Robot};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -68,6 +68,13 @@ impl Chain {
             links,
             end_effector: self.end_effector,
         })
+    }
+
+    /// The validated robot model for `N` joints; an error names `origin` (the URDF file)
+    /// and the URDF's element names.
+    pub fn robot<const N: usize>(&self, origin: &Path) -> Result<Robot<N>, CliError> {
+        Robot::new(&self.desc::<N>()?)
+            .map_err(|e| CliError::input(format!("{}: {}", origin.display(), self.explain(&e))))
     }
 
     /// Human name of a body for messages: `base link 'base'` or `link 'link3'`.
@@ -183,160 +190,211 @@ struct Part<'a> {
 /// Reads and extracts the chain from a URDF file.
 pub fn load(path: &Path, ee: Option<&str>) -> Result<Chain, CliError> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| CliError::input(format!("{}: cannot read URDF: {e}", path.display())))?;
+        .or_input(|| format!("{}: cannot read URDF", path.display()))?;
     parse(&text, ee).map_err(|m| CliError::input(format!("{}: {m}", path.display())))
 }
 
 /// Extracts the chain from URDF text. Errors are messages without the file name.
+///
+/// The steps: the link graph and its root ([`Graph::new`]); the end-effector link
+/// ([`Graph::end_effector`]); the joint path from the root to it ([`Graph::path`]); the
+/// fixed joints on the path composed into the next revolute joint ([`collapse`]); every
+/// link assigned, with its fixed attachments, to the body it moves with ([`Graph::parts`]);
+/// the parts of each body merged into one rigid body ([`merge`]).
 pub fn parse(text: &str, ee: Option<&str>) -> Result<Chain, String> {
     let robot = urdf_rs::read_from_string(text)
         .map_err(|e| format!("not a readable URDF document: {e}"))?;
-    let links: BTreeMap<&str, &urdf_rs::Link> =
-        robot.links.iter().map(|l| (l.name.as_str(), l)).collect();
-    if links.len() != robot.links.len() {
-        return Err("two links share a name".into());
+    let graph = Graph::new(&robot)?;
+    let ee_link = graph.end_effector(ee)?;
+    let path = graph.path(ee_link)?;
+    let collapsed = collapse(graph.root, &path);
+    let n = collapsed.joints.len();
+    let root = graph.root;
+    let bodies = graph.parts(&path, &collapsed.path_links, ee_link, n + 1)?;
+    if !(MIN_JOINTS..=MAX_JOINTS).contains(&n) {
+        return Err(format!(
+            "the chain from '{root}' to '{ee_link}' has {n} revolute joints; supported: {MIN_JOINTS}..={MAX_JOINTS}"
+        ));
     }
-    let mut parent_of: BTreeMap<&str, &urdf_rs::Joint> = BTreeMap::new();
-    let mut children: BTreeMap<&str, Vec<&urdf_rs::Joint>> = BTreeMap::new();
-    for j in &robot.joints {
-        for l in [&j.parent.link, &j.child.link] {
-            if !links.contains_key(l.as_str()) {
-                return Err(format!("joint '{}' refers to unknown link '{l}'", j.name));
-            }
-        }
-        if parent_of.insert(j.child.link.as_str(), j).is_some() {
-            return Err(format!("link '{}' has two parent joints", j.child.link));
-        }
-        children.entry(j.parent.link.as_str()).or_default().push(j);
+    let mut descs = Vec::with_capacity(bodies.len());
+    let names = std::iter::once(root.to_string()).chain(collapsed.link_names.iter().cloned());
+    for (name, parts) in names.zip(&bodies) {
+        descs.push(merge(&name, parts)?);
     }
-    let roots: Vec<&str> = robot
-        .links
-        .iter()
-        .map(|l| l.name.as_str())
-        .filter(|n| !parent_of.contains_key(n))
-        .collect();
-    let root = match roots.as_slice() {
-        [r] => *r,
-        [] => return Err("no root link (the joints form a cycle)".into()),
-        many => return Err(format!("several root links: {}", many.join(", "))),
-    };
-    let ee_link = match ee {
-        Some(e) => {
-            if !links.contains_key(e) {
-                return Err(format!("end-effector link '{e}' is not in the URDF"));
-            }
-            e
+    let mut descs = descs.into_iter();
+    let base = descs.next().ok_or("internal: no base body")?;
+    Ok(Chain {
+        name: robot.name.clone(),
+        base_link: root.to_string(),
+        joint_names: collapsed.joint_names,
+        link_names: collapsed.link_names,
+        ee_link: ee_link.to_string(),
+        base,
+        joints: collapsed.joints,
+        links: descs.collect(),
+        end_effector: collapsed.ee_origin,
+    })
+}
+
+/// The link graph of a URDF: links by name, each link's parent joint and child joints,
+/// and the one root link.
+struct Graph<'a> {
+    /// Link names in document order.
+    names: Vec<&'a str>,
+    links: BTreeMap<&'a str, &'a urdf_rs::Link>,
+    parent_of: BTreeMap<&'a str, &'a urdf_rs::Joint>,
+    children: BTreeMap<&'a str, Vec<&'a urdf_rs::Joint>>,
+    root: &'a str,
+    link_count: usize,
+    joint_count: usize,
+}
+
+impl<'a> Graph<'a> {
+    /// Checks names and references and finds the root.
+    fn new(robot: &'a urdf_rs::Robot) -> Result<Self, String> {
+        let links: BTreeMap<&str, &urdf_rs::Link> =
+            robot.links.iter().map(|l| (l.name.as_str(), l)).collect();
+        if links.len() != robot.links.len() {
+            return Err("two links share a name".into());
         }
-        None => {
-            let leaves: Vec<&str> = robot
-                .links
-                .iter()
-                .map(|l| l.name.as_str())
-                .filter(|n| !children.contains_key(n))
-                .collect();
-            match leaves.as_slice() {
-                [l] => *l,
-                many => {
+        let mut parent_of: BTreeMap<&str, &urdf_rs::Joint> = BTreeMap::new();
+        let mut children: BTreeMap<&str, Vec<&urdf_rs::Joint>> = BTreeMap::new();
+        for j in &robot.joints {
+            for l in [&j.parent.link, &j.child.link] {
+                if !links.contains_key(l.as_str()) {
+                    return Err(format!("joint '{}' refers to unknown link '{l}'", j.name));
+                }
+            }
+            if parent_of.insert(j.child.link.as_str(), j).is_some() {
+                return Err(format!("link '{}' has two parent joints", j.child.link));
+            }
+            children.entry(j.parent.link.as_str()).or_default().push(j);
+        }
+        let roots: Vec<&str> = robot
+            .links
+            .iter()
+            .map(|l| l.name.as_str())
+            .filter(|n| !parent_of.contains_key(n))
+            .collect();
+        let root = match roots.as_slice() {
+            [r] => *r,
+            [] => return Err("no root link (the joints form a cycle)".into()),
+            many => return Err(format!("several root links: {}", many.join(", "))),
+        };
+        Ok(Self {
+            names: robot.links.iter().map(|l| l.name.as_str()).collect(),
+            links,
+            parent_of,
+            children,
+            root,
+            link_count: robot.links.len(),
+            joint_count: robot.joints.len(),
+        })
+    }
+
+    /// The end-effector link: the one named, or the only leaf link.
+    fn end_effector(&self, ee: Option<&'a str>) -> Result<&'a str, String> {
+        if let Some(e) = ee {
+            return match self.links.get_key_value(e) {
+                Some((name, _)) => Ok(name),
+                None => Err(format!("end-effector link '{e}' is not in the URDF")),
+            };
+        }
+        let leaves: Vec<&str> = self
+            .names
+            .iter()
+            .copied()
+            .filter(|n| !self.children.contains_key(n))
+            .collect();
+        match leaves.as_slice() {
+            [l] => Ok(l),
+            many => Err(format!(
+                "several leaf links ({}); name the end effector (ee_link / --ee)",
+                many.join(", ")
+            )),
+        }
+    }
+
+    /// The joints from the root to `ee_link`, root first; revolute and fixed only.
+    fn path(&self, ee_link: &str) -> Result<Vec<&'a urdf_rs::Joint>, String> {
+        let mut path: Vec<&urdf_rs::Joint> = Vec::new();
+        let mut cur = ee_link;
+        while let Some(j) = self.parent_of.get(cur) {
+            if path.len() > self.joint_count {
+                return Err("the joints form a cycle".into());
+            }
+            path.push(j);
+            cur = j.parent.link.as_str();
+        }
+        path.reverse();
+        for j in &path {
+            match j.joint_type {
+                urdf_rs::JointType::Revolute | urdf_rs::JointType::Fixed => {}
+                ref t => {
                     return Err(format!(
-                        "several leaf links ({}); name the end effector (ee_link / --ee)",
-                        many.join(", ")
+                        "joint '{}' is {t:?}: only revolute and fixed joints are supported",
+                        j.name
                     ));
                 }
             }
         }
-    };
-    // The path root → ee, as joints.
-    let mut path: Vec<&urdf_rs::Joint> = Vec::new();
-    let mut cur = ee_link;
-    while let Some(j) = parent_of.get(cur) {
-        if path.len() > robot.joints.len() {
-            return Err("the joints form a cycle".into());
-        }
-        path.push(j);
-        cur = j.parent.link.as_str();
+        Ok(path)
     }
-    path.reverse();
-    for j in &path {
-        match j.joint_type {
-            urdf_rs::JointType::Revolute | urdf_rs::JointType::Fixed => {}
-            ref t => {
-                return Err(format!(
-                    "joint '{}' is {t:?}: only revolute and fixed joints are supported",
-                    j.name
-                ));
-            }
-        }
-    }
-    let on_path: Vec<&str> = path.iter().map(|j| j.name.as_str()).collect();
 
-    // Bodies: the root, then the child of each revolute joint. Each body collects the links
-    // rigidly attached to it (fixed joints, on or off the path).
-    let mut bodies: Vec<(String, Vec<Part>)> = vec![(root.to_string(), Vec::new())];
-    let mut joints = Vec::new();
-    let mut joint_names = Vec::new();
-    let mut link_names = Vec::new();
-    // Transform from the current body's frame to the current path link's frame.
-    let mut to_link = Tf::identity();
-    let mut composed = false;
-    let mut ee_origin = Origin::IDENTITY;
-    let mut path_links: Vec<(&str, Tf, bool)> = vec![(root, Tf::identity(), false)];
-    for j in &path {
-        if j.joint_type == urdf_rs::JointType::Fixed {
-            to_link = to_link.then(&Tf::from_pose(&j.origin));
-            composed = true;
-            path_links.push((j.child.link.as_str(), to_link, true));
-            continue;
+    /// Every path link and its fixed off-path subtrees, grouped by the body they move
+    /// with (`bodies` of them: the root's, then one per revolute joint).
+    fn parts(
+        &self,
+        path: &[&urdf_rs::Joint],
+        path_links: &[PathLink<'a>],
+        ee_link: &str,
+        bodies: usize,
+    ) -> Result<Vec<Vec<Part<'a>>>, String> {
+        let on_path: Vec<&str> = path.iter().map(|j| j.name.as_str()).collect();
+        let mut out: Vec<Vec<Part>> = (0..bodies).map(|_| Vec::new()).collect();
+        let mut body_index = 0usize;
+        for (k, pl) in path_links.iter().enumerate() {
+            if k > 0 && !pl.via_fixed {
+                body_index += 1;
+            }
+            let link = self
+                .links
+                .get(pl.name)
+                .copied()
+                .ok_or_else(|| format!("link '{}' missing", pl.name))?;
+            let Some(parts) = out.get_mut(body_index) else {
+                return Err("internal: body index".into());
+            };
+            parts.push(Part {
+                link,
+                in_body: pl.via_fixed.then_some(pl.in_body),
+            });
+            let beyond_ee = k + 1 == path_links.len();
+            self.attachments(pl.name, pl.in_body, &on_path, beyond_ee, ee_link, parts)?;
         }
-        let origin = if composed {
-            to_link.then(&Tf::from_pose(&j.origin)).origin()
-        } else {
-            pose_origin(&j.origin)
-        };
-        let l = &j.limit;
-        joints.push(JointDesc {
-            origin,
-            axis: j.axis.xyz.0,
-            lower: l.lower,
-            upper: l.upper,
-            velocity: l.velocity,
-        });
-        joint_names.push(j.name.clone());
-        link_names.push(j.child.link.clone());
-        bodies.push((j.child.link.clone(), Vec::new()));
-        to_link = Tf::identity();
-        composed = false;
-        path_links.push((j.child.link.as_str(), to_link, false));
+        Ok(out)
     }
-    if composed {
-        ee_origin = to_link.origin();
-    }
-    // Assign every path link and its fixed off-path subtrees to the body it belongs to.
-    let mut body_index = 0usize;
-    for (k, (name, tf, via_fixed)) in path_links.iter().enumerate() {
-        if k > 0 && !via_fixed {
-            body_index += 1;
-        }
-        let link = links
-            .get(name)
-            .copied()
-            .ok_or_else(|| format!("link '{name}' missing"))?;
-        let Some((_, parts)) = bodies.get_mut(body_index) else {
-            return Err("internal: body index".into());
-        };
-        parts.push(Part {
-            link,
-            in_body: if *via_fixed { Some(*tf) } else { None },
-        });
-        // Off-path subtrees: fixed-only, merged rigidly.
-        let beyond_ee = k + 1 == path_links.len();
-        let mut stack: Vec<(&str, Tf)> = vec![(name, *tf)];
+
+    /// The links fixed (through fixed joints only) to `name` off the path, pushed with
+    /// their pose in the body frame; a movable joint there is an error.
+    fn attachments(
+        &self,
+        name: &'a str,
+        in_body: Tf,
+        on_path: &[&str],
+        beyond_ee: bool,
+        ee_link: &str,
+        parts: &mut Vec<Part<'a>>,
+    ) -> Result<(), String> {
+        let root = self.root;
+        let mut stack: Vec<(&str, Tf)> = vec![(name, in_body)];
         let mut guard = 0usize;
         while let Some((lname, ltf)) = stack.pop() {
             guard += 1;
-            if guard > robot.links.len() + 1 {
+            if guard > self.link_count + 1 {
                 return Err("the joints form a cycle".into());
             }
-            for cj in children.get(lname).map(Vec::as_slice).unwrap_or(&[]) {
+            for cj in self.children.get(lname).map(Vec::as_slice).unwrap_or(&[]) {
                 if on_path.contains(&cj.name.as_str()) {
                     continue;
                 }
@@ -353,7 +411,8 @@ pub fn parse(text: &str, ee: Option<&str>) -> Result<Chain, String> {
                     ));
                 }
                 let ctf = ltf.then(&Tf::from_pose(&cj.origin));
-                let clink = links
+                let clink = self
+                    .links
                     .get(cj.child.link.as_str())
                     .copied()
                     .ok_or_else(|| format!("link '{}' missing", cj.child.link))?;
@@ -364,30 +423,85 @@ pub fn parse(text: &str, ee: Option<&str>) -> Result<Chain, String> {
                 stack.push((cj.child.link.as_str(), ctf));
             }
         }
+        Ok(())
     }
-    let n = joints.len();
-    if !(MIN_JOINTS..=MAX_JOINTS).contains(&n) {
-        return Err(format!(
-            "the chain from '{root}' to '{ee_link}' has {n} revolute joints; supported: {MIN_JOINTS}..={MAX_JOINTS}"
-        ));
+}
+
+/// A link on the path and where it sits in the body it moves with.
+struct PathLink<'a> {
+    name: &'a str,
+    /// Its frame in the body's frame (identity for the body's own link).
+    in_body: Tf,
+    /// Reached through a fixed joint (so it belongs to the previous body).
+    via_fixed: bool,
+}
+
+/// The path with its fixed joints composed away.
+struct Collapsed<'a> {
+    joints: Vec<JointDesc>,
+    joint_names: Vec<String>,
+    link_names: Vec<String>,
+    /// Every link on the path (root first) with its place in its body.
+    path_links: Vec<PathLink<'a>>,
+    /// End-effector frame in the last body's frame.
+    ee_origin: Origin,
+}
+
+/// Composes the fixed joints of the path into the next revolute joint's origin (or into
+/// the end-effector frame). Where nothing is composed, the origin passes through untouched.
+fn collapse<'a>(root: &'a str, path: &[&'a urdf_rs::Joint]) -> Collapsed<'a> {
+    let mut out = Collapsed {
+        joints: Vec::new(),
+        joint_names: Vec::new(),
+        link_names: Vec::new(),
+        path_links: vec![PathLink {
+            name: root,
+            in_body: Tf::identity(),
+            via_fixed: false,
+        }],
+        ee_origin: Origin::IDENTITY,
+    };
+    // Transform from the current body's frame to the current path link's frame.
+    let mut to_link = Tf::identity();
+    let mut composed = false;
+    for j in path {
+        if j.joint_type == urdf_rs::JointType::Fixed {
+            to_link = to_link.then(&Tf::from_pose(&j.origin));
+            composed = true;
+            out.path_links.push(PathLink {
+                name: j.child.link.as_str(),
+                in_body: to_link,
+                via_fixed: true,
+            });
+            continue;
+        }
+        let origin = if composed {
+            to_link.then(&Tf::from_pose(&j.origin)).origin()
+        } else {
+            pose_origin(&j.origin)
+        };
+        let l = &j.limit;
+        out.joints.push(JointDesc {
+            origin,
+            axis: j.axis.xyz.0,
+            lower: l.lower,
+            upper: l.upper,
+            velocity: l.velocity,
+        });
+        out.joint_names.push(j.name.clone());
+        out.link_names.push(j.child.link.clone());
+        to_link = Tf::identity();
+        composed = false;
+        out.path_links.push(PathLink {
+            name: j.child.link.as_str(),
+            in_body: to_link,
+            via_fixed: false,
+        });
     }
-    let mut descs = Vec::with_capacity(bodies.len());
-    for (name, parts) in &bodies {
-        descs.push(merge(name, parts)?);
+    if composed {
+        out.ee_origin = to_link.origin();
     }
-    let mut descs = descs.into_iter();
-    let base = descs.next().ok_or("internal: no base body")?;
-    Ok(Chain {
-        name: robot.name.clone(),
-        base_link: root.to_string(),
-        joint_names,
-        link_names,
-        ee_link: ee_link.to_string(),
-        base,
-        joints,
-        links: descs.collect(),
-        end_effector: ee_origin,
-    })
+    out
 }
 
 /// The mass properties of one body from its parts.

@@ -395,6 +395,31 @@ fn campaign_is_the_same_for_any_number_of_jobs() {
     assert_eq!(code, Some(2), "{err}");
 }
 
+#[test]
+fn campaign_quotes_a_task_path_with_a_comma() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("tasks, v2");
+    std::fs::create_dir(&dir).unwrap();
+    let urdf = root().join("tests/robots/arm6.urdf");
+    let text = std::fs::read_to_string(arm6())
+        .unwrap()
+        .replace("../../robots/arm6.urdf", &urdf.display().to_string());
+    let task = dir.join("task.toml");
+    std::fs::write(&task, text).unwrap();
+    let out = tmp.path().join("out");
+    let (code, _, err) = run(
+        &["campaign", "{}", "--seeds", "1", "--out", "{}"],
+        &[&task, &out],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let mut rows = csv::Reader::from_path(out.join("runs.csv")).unwrap();
+    let headers = rows.headers().unwrap().clone();
+    let records: Vec<csv::StringRecord> = rows.records().map(Result::unwrap).collect();
+    assert_eq!(records.len(), 1);
+    assert_eq!(records[0].len(), headers.len());
+    assert_eq!(&records[0][0], task.display().to_string());
+}
+
 // --- target (the QEMU run itself is in .ci/run; here what needs no emulator) -------------
 
 #[test]

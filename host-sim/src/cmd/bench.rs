@@ -5,14 +5,14 @@
 //! `plan_rollouts_median`: over seeds 1..=10 with the task's planner settings. The η timed
 //! for steps and rollouts is the seed-1 plan's.
 
-use crate::cmd::campaign::median;
-use crate::cmd::plan::{HOST_CAPACITY, plan};
-use crate::error::CliError;
+use crate::drive::{self, HOST_CAPACITY};
+use crate::error::{CliError, Context};
+use crate::stats::median;
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
-use reactionless::{Progress, Rollout, Status};
+use reactionless::{Progress, Rollout};
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The report.
@@ -34,16 +34,47 @@ pub struct BenchJson {
     pub plan_rollouts_median: f64,
     /// Seeds (of 10) that converged.
     pub plan_converged: u32,
-    /// Per seed: (seed, seconds, iterations, rollouts, converged).
-    pub plans: Vec<(u64, f64, u32, u32, bool)>,
+    /// One entry per seed.
+    pub plans: Vec<PlanRun>,
 }
 
-/// Runs the subcommand.
-pub fn run(task_path: &Path, json: bool) -> Result<(), CliError> {
+/// One timed plan.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanRun {
+    /// Seed.
+    pub seed: u64,
+    /// Wall time (s).
+    pub wall_time_s: f64,
+    /// C-PSO iterations.
+    pub iterations: u32,
+    /// Rollouts.
+    pub rollouts: u32,
+    /// Whether it converged.
+    pub converged: bool,
+}
+
+/// Time the core on a task: one step, one rollout, and planning over seeds 1..10.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Task file (TOML).
+    task: PathBuf,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        run(&self.task, self.json)
+    }
+}
+
+fn run(task_path: &Path, json: bool) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
     let report = with_dims!(lt.chain.dof(), bench_n, &lt)?;
     if json {
-        let s = serde_json::to_string(&report).map_err(|e| CliError::internal(e.to_string()))?;
+        let s = serde_json::to_string(&report).or_internal(|| "report JSON")?;
         println!("{s}");
     } else {
         println!("step            {:10.1} ns (median)", report.step_ns);
@@ -81,16 +112,19 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
                 ..Overrides::default()
             },
         )?;
-        let done = plan::<N, K>(lt, config, false)?;
-        let (p, converged) = match done.status {
-            Status::Finished(p) => (p, p.converged()),
-            Status::Running(_) => return Err(CliError::internal("planner still running")),
-        };
+        let done = drive::plan::<N, K>(lt, config, false)?;
+        let p = done.plan;
         if eta.is_none() {
             eta = Some(p.eta);
             continue;
         }
-        plans.push((seed, done.seconds, p.iterations, p.rollouts, converged));
+        plans.push(PlanRun {
+            seed,
+            wall_time_s: done.seconds,
+            iterations: p.iterations,
+            rollouts: p.rollouts,
+            converged: p.converged(),
+        });
     }
     let eta = eta.ok_or_else(|| CliError::internal("no plan"))?;
     let steps = task.motion().steps();
@@ -98,17 +132,13 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
     let mut per_rollout = Vec::new();
     for _ in 0..21 {
         let start = Instant::now();
-        let o = task
-            .rollout(&eta, &mut ())
-            .map_err(|e| CliError::failed(e.to_string()))?;
+        let o = task.rollout(&eta, &mut ()).or_failed(|| "rollout")?;
         per_rollout.push(start.elapsed().as_secs_f64() * 1e6);
         std::hint::black_box(o);
-        let mut r = Rollout::new(&task, &eta).map_err(|e| CliError::failed(e.to_string()))?;
+        let mut r = Rollout::new(&task, &eta).or_failed(|| "rollout")?;
         loop {
             let t = Instant::now();
-            let p = r
-                .advance(&task, 100, &mut ())
-                .map_err(|e| CliError::failed(e.to_string()))?;
+            let p = r.advance(&task, 100, &mut ()).or_failed(|| "rollout")?;
             let dt = t.elapsed().as_secs_f64();
             match p {
                 Progress::Running { .. } => per_step.push(dt * 1e9 / 100.0),
@@ -121,10 +151,20 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
         steps_per_rollout: steps,
         step_ns: median(&per_step),
         rollout_us: median(&per_rollout),
-        plan_s_median: median(&plans.iter().map(|p| p.1).collect::<Vec<_>>()),
-        plan_iterations_median: median(&plans.iter().map(|p| f64::from(p.2)).collect::<Vec<_>>()),
-        plan_rollouts_median: median(&plans.iter().map(|p| f64::from(p.3)).collect::<Vec<_>>()),
-        plan_converged: plans.iter().filter(|p| p.4).count() as u32,
+        plan_s_median: median(&plans.iter().map(|p| p.wall_time_s).collect::<Vec<_>>()),
+        plan_iterations_median: median(
+            &plans
+                .iter()
+                .map(|p| f64::from(p.iterations))
+                .collect::<Vec<_>>(),
+        ),
+        plan_rollouts_median: median(
+            &plans
+                .iter()
+                .map(|p| f64::from(p.rollouts))
+                .collect::<Vec<_>>(),
+        ),
+        plan_converged: plans.iter().filter(|p| p.converged).count() as u32,
         plans,
     })
 }

@@ -7,28 +7,30 @@
 //! overall: success rate, and median / p90 / max of iterations, rollouts, f, base
 //! disturbance and wall time) atomically.
 
-use crate::cmd::plan::{HOST_CAPACITY, plan};
-use crate::cmd::rollout::write_rollout;
-use crate::error::CliError;
+use crate::args::parse_seeds;
+use crate::artifacts::write_rollout;
+use crate::drive::{self, HOST_CAPACITY};
+use crate::error::{CliError, Context};
 use crate::output::OutDir;
+use crate::stats::{max, median, percentile};
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use reactionless::Status;
+use serde::Serialize;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-/// One run's result.
-#[derive(Debug, Clone)]
+/// One run's result: one row of `runs.csv` (columns in field order).
+#[derive(Debug, Clone, Serialize)]
 pub struct Run {
     /// Task file as given.
     pub task: String,
     /// Seed.
     pub seed: u64,
-    /// Converged (f ≤ σ_e with Φ = 0)?
-    pub converged: bool,
+    /// `converged` (f ≤ σ_e with Φ = 0) or `not_converged`.
+    pub status: &'static str,
     /// C-PSO iterations.
     pub iterations: u32,
     /// Rollouts.
@@ -47,29 +49,6 @@ pub struct Run {
     pub wall_s: f64,
 }
 
-/// Parses `A..B` (inclusive) into seeds.
-pub fn parse_seeds(s: &str) -> Result<Vec<u64>, String> {
-    let (a, b) = s
-        .split_once("..")
-        .ok_or_else(|| format!("'{s}' is not a range A..B (inclusive)"))?;
-    let a: u64 = a
-        .trim()
-        .parse()
-        .map_err(|_| format!("'{a}' is not a seed"))?;
-    let b: u64 = b
-        .trim()
-        .trim_start_matches('=')
-        .parse()
-        .map_err(|_| format!("'{b}' is not a seed"))?;
-    if b < a {
-        return Err(format!("empty range {a}..{b}"));
-    }
-    if b - a >= 1_000_000 {
-        return Err(format!("{a}..{b} has more than a million seeds"));
-    }
-    Ok((a..=b).collect())
-}
-
 fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run, CliError> {
     let config = lt.planner(
         HOST_CAPACITY,
@@ -79,16 +58,17 @@ fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run
         },
     )?;
     let task = lt.task::<N, K>()?;
-    let done = plan::<N, K>(lt, config, false)?;
-    let (converged, p) = match done.status {
-        Status::Finished(p) => (p.converged(), p),
-        Status::Running(_) => return Err(CliError::internal("planner still running")),
-    };
+    let done = drive::plan::<N, K>(lt, config, false)?;
+    let p = done.plan;
     let truth = write_rollout(&task, &p.eta, None, false)?.truth;
     Ok(Run {
         task: lt.path.display().to_string(),
         seed,
-        converged,
+        status: if p.converged() {
+            "converged"
+        } else {
+            "not_converged"
+        },
         iterations: p.iterations,
         rollouts: p.rollouts,
         f: p.outcome.f,
@@ -100,34 +80,11 @@ fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run
     })
 }
 
-/// Nearest-rank percentile `p` (0..=100) of `v`.
-pub fn percentile(v: &[f64], p: f64) -> f64 {
-    let mut s: Vec<f64> = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    let rank = ((p / 100.0) * s.len() as f64).ceil().max(1.0) as usize;
-    s[rank.min(s.len()) - 1]
-}
-
-/// Median (mean of the middle two for an even count).
-pub fn median(v: &[f64]) -> f64 {
-    let mut s: Vec<f64> = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => s[n / 2],
-        _ => 0.5 * (s[n / 2 - 1] + s[n / 2]),
-    }
-}
-
 /// A summary column: name, the value of a run, scientific notation.
 type Column = (&'static str, fn(&Run) -> f64, bool);
 
 fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
-    let ok = runs.iter().filter(|r| r.converged).count();
+    let ok = runs.iter().filter(|r| r.converged()).count();
     let _ = writeln!(
         out,
         "\n### {label}\n\n{} runs, {} converged ({:.1}%)\n",
@@ -157,7 +114,7 @@ fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
             "| {name} | {} | {} | {} |",
             fmt(median(&v)),
             fmt(percentile(&v, 90.0)),
-            fmt(v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+            fmt(max(&v))
         );
     }
 }
@@ -184,13 +141,41 @@ pub fn summary(runs: &[Run], seeds: &[u64]) -> String {
     out
 }
 
-/// Runs the subcommand.
-pub fn run(
-    tasks: &[PathBuf],
-    seeds: &[u64],
+/// Monte Carlo over tasks and seeds in parallel: DIR/runs.csv and DIR/summary.md.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Task files (TOML).
+    #[arg(required = true)]
+    tasks: Vec<PathBuf>,
+    /// Seeds: `3`, `1,2,5` or `1..10` (inclusive).
+    #[arg(long, value_parser = parse_seeds)]
+    seeds: Seeds,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
     jobs: Option<usize>,
-    out: &Path,
-) -> Result<(), CliError> {
+    /// Output directory (replaced atomically).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// A list of seeds.
+type Seeds = Vec<u64>;
+
+impl Run {
+    /// Whether the run converged.
+    pub fn converged(&self) -> bool {
+        self.status == "converged"
+    }
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        run(&self.tasks, &self.seeds, self.jobs, &self.out)
+    }
+}
+
+fn run(tasks: &[PathBuf], seeds: &[u64], jobs: Option<usize>, out: &Path) -> Result<(), CliError> {
     if tasks.is_empty() {
         return Err(CliError::input("campaign needs at least one task file"));
     }
@@ -206,7 +191,7 @@ pub fn run(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs.unwrap_or(0))
         .build()
-        .map_err(|e| CliError::input(format!("--jobs: {e}")))?;
+        .or_input(|| "--jobs")?;
     let pairs: Vec<(&LoadedTask, u64)> = loaded
         .iter()
         .flat_map(|lt| seeds.iter().map(move |s| (lt, *s)))
@@ -236,36 +221,16 @@ pub fn run(
     bar.finish_and_clear();
     let runs: Vec<Run> = results.into_iter().collect::<Result<_, _>>()?;
     let dir = OutDir::create(out)?;
-    let mut csv = String::from(
-        "task,seed,status,iterations,rollouts,f,phi,position_error_m,orientation_error_deg,base_disturbance_deg,wall_s\n",
-    );
+    let mut csv = csv::Writer::from_path(dir.path("runs.csv")).or_input(|| "runs.csv")?;
     for r in &runs {
-        let b = |v: f64| ryu::Buffer::new().format(v).to_string();
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{},{}",
-            r.task,
-            r.seed,
-            if r.converged {
-                "converged"
-            } else {
-                "not_converged"
-            },
-            r.iterations,
-            r.rollouts,
-            b(r.f),
-            b(r.phi),
-            b(r.position_error_m),
-            b(r.orientation_error_deg),
-            b(r.base_disturbance_deg),
-            b(r.wall_s)
-        );
+        csv.serialize(r).or_input(|| "runs.csv")?;
     }
-    dir.write("runs.csv", csv.as_bytes())?;
+    csv.flush().or_input(|| "runs.csv")?;
+
     let md = summary(&runs, seeds);
     dir.write("summary.md", md.as_bytes())?;
     let path = dir.commit()?;
-    let ok = runs.iter().filter(|r| r.converged).count();
+    let ok = runs.iter().filter(|r| r.converged()).count();
     eprintln!(
         "campaign: {ok} of {} runs converged -> {}",
         runs.len(),

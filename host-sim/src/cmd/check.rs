@@ -14,13 +14,31 @@
 //! Prints a table. Exit 0 if everything passes, 1 if anything fails, 2 if the directory
 //! cannot be read as a host-sim output.
 
-use crate::cmd::rollout::{TRUTH_SUBSTEPS, parse_eta};
-use crate::error::CliError;
+use crate::args::parse_eta;
+use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
+use crate::error::{CliError, Context};
 use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::with_dims;
-use reactionless::{Frames, Sample, Sink, TruthModel};
+use reactionless::integrator::euler_step;
+use reactionless::{IDENTITY_WXYZ, Sample, Sink, Task, TruthModel};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Verify an output directory of `plan` or `rollout` independently: the trajectory as
+/// written against a fresh rollout, the integrator, every limit, the pose error and the
+/// base disturbance. Exit code 0 all pass, 1 a check failed, 2 unreadable.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Output directory of `plan` or `rollout`.
+    dir: PathBuf,
+}
+
+impl Args {
+    /// Runs the subcommand: prints the table, fails with exit code 1 if a check fails.
+    pub fn run(self) -> Result<(), CliError> {
+        run(&self.dir)
+    }
+}
 
 /// One line of the report.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,7 +71,7 @@ fn read(dir: &Path, name: &str) -> Result<String, CliError> {
     })
 }
 
-/// Runs the subcommand: prints the table, fails with exit code 1 if a check fails.
+/// Prints the table of `dir`'s checks; fails with exit code 1 if a check fails.
 pub fn run(dir: &Path) -> Result<(), CliError> {
     let lines = verify(dir)?;
     println!("{}", table(&lines));
@@ -78,19 +96,10 @@ pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
     let task_text = read(dir, BUNDLE_TASK)?;
     let urdf_text = read(dir, BUNDLE_URDF)?;
     let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
-    let summary: serde_json::Value = serde_json::from_str(&read(dir, "summary.json")?)
-        .map_err(|e| CliError::input(format!("{}: summary.json: {e}", dir.display())))?;
-    let eta: Vec<f64> = summary["eta"]
-        .as_array()
-        .and_then(|a| a.iter().map(serde_json::Value::as_f64).collect())
-        .ok_or_else(|| {
-            CliError::input(format!(
-                "{}: summary.json has no numeric eta",
-                dir.display()
-            ))
-        })?;
+    let summary: Summary = serde_json::from_str(&read(dir, "summary.json")?)
+        .or_input(|| format!("{}: summary.json", dir.display()))?;
     let csv = read(dir, "trajectory.csv")?;
-    with_dims!(lt.chain.dof(), verify_n, &lt, dir, &eta, &csv)
+    with_dims!(lt.chain.dof(), verify_n, &lt, dir, &summary.eta, &csv)
 }
 
 /// Parses the CSV as written: header, then rows of `1 + 2N` numbers.
@@ -157,32 +166,49 @@ fn verify_n<const N: usize, const K: usize>(
     let task = lt.task::<N, K>()?;
     let eta = parse_eta::<K>(eta)?;
     let written = parse_csv::<N>(dir, csv)?;
-    let motion = *task.motion();
-    let robot = task.robot();
-    let mut lines = Vec::new();
+    let mut lines = shape(&task, &written);
+    lines.push(matches_fresh_rollout(&task, &eta, &written));
+    lines.push(follows_integrator(&task, &written));
+    lines.push(joint_limits(&task, &written));
+    lines.push(joint_rates(lt, &written));
+    lines.push(rest_at_both_ends(&written));
+    lines.push(pose_error(lt, &task, &written));
+    lines.push(base_disturbance(lt, &task, &written));
+    Ok(lines)
+}
 
-    // Shape and time grid.
+/// Sample count `t_f/dt + 1` and the time grid `t_s = s·dt`, to the bit.
+fn shape<const N: usize, const K: usize>(task: &Task<N, K>, written: &[Sample<N>]) -> Vec<Line> {
+    let motion = task.motion();
     let expected = motion.steps() as usize + 1;
-    lines.push(line(
-        "samples",
-        written.len().to_string(),
-        format!("= {expected} (t_f/dt + 1)"),
-        written.len() == expected,
-    ));
     let bad_t = written
         .iter()
         .enumerate()
         .find(|(s, x)| x.t.to_bits() != motion.time(*s as u32).to_bits());
-    lines.push(line(
-        "time grid",
-        bad_t.map_or("exact".into(), |(s, x)| format!("row {s}: t = {}", x.t)),
-        format!("t_s = s*{} s", motion.dt()),
-        bad_t.is_none(),
-    ));
+    vec![
+        line(
+            "samples",
+            written.len().to_string(),
+            format!("= {expected} (t_f/dt + 1)"),
+            written.len() == expected,
+        ),
+        line(
+            "time grid",
+            bad_t.map_or("exact".into(), |(s, x)| format!("row {s}: t = {}", x.t)),
+            format!("t_s = s*{} s", motion.dt()),
+            bad_t.is_none(),
+        ),
+    ]
+}
 
-    // Bit-for-bit against a fresh rollout of the recorded η.
-    let mut fresh = Vec::with_capacity(expected);
-    let rerun = task.rollout(&eta, &mut |s: &Sample<N>| fresh.push(*s));
+/// Every written value equals a fresh rollout of the recorded η, bit for bit.
+fn matches_fresh_rollout<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    written: &[Sample<N>],
+) -> Line {
+    let mut fresh = Vec::with_capacity(written.len());
+    let rerun = task.rollout(eta, &mut |s: &Sample<N>| fresh.push(*s));
     let mismatch = match &rerun {
         Err(e) => Some(format!("rollout of eta failed: {e}")),
         Ok(_) if fresh.len() != written.len() => Some(format!(
@@ -209,31 +235,40 @@ fn verify_n<const N: usize, const K: usize>(
                     })
             }),
     };
-    lines.push(line(
+    line(
         "matches a fresh rollout of eta",
         mismatch.clone().unwrap_or_else(|| "bit for bit".into()),
         "every bit".into(),
         mismatch.is_none(),
-    ));
+    )
+}
 
-    // The integrator, row to row, on the written values alone.
-    let dt = motion.dt();
+/// Each row follows from the previous one by the integrator, on the written values alone.
+fn follows_integrator<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    written: &[Sample<N>],
+) -> Line {
+    let dt = task.motion().dt();
     let euler = written.windows(2).enumerate().find_map(|(row, w)| {
         let (a, b) = (&w[0], &w[1]);
-        a.q.iter()
-            .zip(&a.qd)
+        let mut next = a.q;
+        euler_step(&mut next, &a.qd, dt);
+        next.iter()
             .zip(&b.q)
-            .position(|((q, v), next)| (q + dt * v).to_bits() != next.to_bits())
+            .position(|(x, y)| x.to_bits() != y.to_bits())
             .map(|j| format!("row {} -> {}: q{}", row, row + 1, j + 1))
     });
-    lines.push(line(
+    line(
         "rows follow q' = q + dt*qd",
         euler.clone().unwrap_or_else(|| "every row".into()),
         "exact".into(),
         euler.is_none(),
-    ));
+    )
+}
 
-    // Joint limits.
+/// Every written q within its joint's limits.
+fn joint_limits<const N: usize, const K: usize>(task: &Task<N, K>, written: &[Sample<N>]) -> Line {
+    let robot = task.robot();
     let mut worst = f64::INFINITY;
     let mut worst_at = String::new();
     for (row, s) in written.iter().enumerate() {
@@ -245,14 +280,16 @@ fn verify_n<const N: usize, const K: usize>(
             }
         }
     }
-    lines.push(line(
+    line(
         "joint limits",
         format!("min margin {:.4} deg ({worst_at})", worst.to_degrees()),
         ">= 0".into(),
         worst >= 0.0,
-    ));
+    )
+}
 
-    // Joint rates against each joint's own limit.
+/// Every written |q̇| against its own joint's velocity limit.
+fn joint_rates<const N: usize>(lt: &LoadedTask, written: &[Sample<N>]) -> Line {
     let mut worst_ratio = 0.0f64;
     let mut worst_rate = String::new();
     for (row, s) in written.iter().enumerate() {
@@ -273,17 +310,21 @@ fn verify_n<const N: usize, const K: usize>(
             }
         }
     }
-    lines.push(line(
+    line(
         "joint rates",
         worst_rate,
         "<= velocity limit".into(),
         worst_ratio <= 1.0,
-    ));
+    )
+}
+
+/// q̇ = 0 exactly at the first and the last sample.
+fn rest_at_both_ends<const N: usize>(written: &[Sample<N>]) -> Line {
     let ends_zero = match (written.first(), written.last()) {
         (Some(a), Some(b)) => a.qd.iter().chain(&b.qd).all(|v| *v == 0.0),
         _ => false,
     };
-    lines.push(line(
+    line(
         "qd = 0 at t = 0 and t_f",
         if ends_zero {
             "exactly".into()
@@ -292,52 +333,61 @@ fn verify_n<const N: usize, const K: usize>(
         },
         "= 0".into(),
         ends_zero,
-    ));
+    )
+}
 
-    // End pose from the written final configuration.
+/// The planner-model end pose of the written `q_S` within the task's tolerance.
+fn pose_error<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    written: &[Sample<N>],
+) -> Line {
     let tolerance = lt.file.planner.tolerance;
-    match written.last() {
-        Some(last) => {
-            let pose = Frames::new(robot, &last.q).end_pose(&task.com0(), [1.0, 0.0, 0.0, 0.0]);
-            let e = pose.error_to(task.target());
-            lines.push(line(
-                "pose error f (planner model)",
-                format!(
-                    "{:.3e} ({:.3e} m, {:.3e} deg)",
-                    e.norm(),
-                    e.position_m(),
-                    e.orientation_deg()
-                ),
-                format!("<= {tolerance} ([planner] tolerance)"),
-                e.norm() <= tolerance,
-            ));
-        }
-        None => lines.push(line(
+    let Some(last) = written.last() else {
+        return line(
             "pose error f (planner model)",
             "no samples".into(),
             String::new(),
             false,
-        )),
-    }
+        );
+    };
+    let e = task
+        .end_pose(&last.q, IDENTITY_WXYZ)
+        .error_to(task.target());
+    line(
+        "pose error f (planner model)",
+        format!(
+            "{:.3e} ({:.3e} m, {:.3e} deg)",
+            e.norm(),
+            e.position_m(),
+            e.orientation_deg()
+        ),
+        format!("<= {tolerance} ([planner] tolerance)"),
+        e.norm() <= tolerance,
+    )
+}
 
-    // The written path through the truth model.
-    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
-    for s in &written {
+/// The written path through the truth model, below `[check] max_base_disturbance_deg`.
+fn base_disturbance<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    written: &[Sample<N>],
+) -> Line {
+    let mut truth = TruthModel::new(task, TRUTH_SUBSTEPS);
+    for s in written {
         truth.sample(s);
     }
     let limit = lt.max_base_disturbance_deg();
     let deg = truth.max_angle().to_degrees();
-    let ok = truth.error().is_none() && deg <= limit;
-    lines.push(line(
+    line(
         "base disturbance (truth model)",
         match truth.error() {
             Some(e) => format!("failed: {e}"),
             None => format!("{deg:.3e} deg"),
         },
         format!("<= {limit} deg ([check] max_base_disturbance_deg)"),
-        ok,
-    ));
-    Ok(lines)
+        truth.error().is_none() && deg <= limit,
+    )
 }
 
 /// The report as an aligned text table.

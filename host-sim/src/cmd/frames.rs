@@ -5,13 +5,13 @@
 //! budget actually used per frame (max and mean; never above the budget) and the wall time
 //! per frame on this machine (max and mean).
 
-use crate::cmd::plan::HOST_CAPACITY;
-use crate::error::CliError;
+use crate::drive::HOST_CAPACITY;
+use crate::error::{CliError, Context};
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use reactionless::{Planner, Status};
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The report.
@@ -39,8 +39,28 @@ pub struct FramesJson {
     pub f: f64,
 }
 
-/// Runs the subcommand.
-pub fn run(task_path: &Path, frame_budget: u32, json: bool) -> Result<(), CliError> {
+/// Plan under a cyclic executive: at most FRAME_BUDGET integration steps per frame;
+/// report frames, steps per frame and wall time per frame.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Task file (TOML).
+    task: PathBuf,
+    /// Integration steps per frame.
+    #[arg(long)]
+    frame_budget: u32,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        run(&self.task, self.frame_budget, self.json)
+    }
+}
+
+fn run(task_path: &Path, frame_budget: u32, json: bool) -> Result<(), CliError> {
     if frame_budget == 0 {
         return Err(CliError::input(
             "--frame-budget must be at least 1 integration step",
@@ -51,7 +71,7 @@ pub fn run(task_path: &Path, frame_budget: u32, json: bool) -> Result<(), CliErr
     if json {
         println!(
             "{}",
-            serde_json::to_string(&report).map_err(|e| CliError::internal(e.to_string()))?
+            serde_json::to_string(&report).or_internal(|| "report JSON")?
         );
     } else {
         println!("frame budget       {:>10} steps", report.frame_budget);
@@ -88,30 +108,25 @@ fn frames_n<const N: usize, const K: usize>(
     budget: u32,
 ) -> Result<FramesJson, CliError> {
     let config = lt.planner(HOST_CAPACITY, &Overrides::default())?;
-    let mut planner: Box<Planner<N, K, HOST_CAPACITY>> = Box::new(
-        Planner::new(lt.task::<N, K>()?, config)
-            .map_err(|e| CliError::input(format!("planner: {e}")))?,
-    );
+    let mut planner: Box<Planner<N, K, HOST_CAPACITY>> =
+        Box::new(Planner::new(lt.task::<N, K>()?, config).or_input(|| "planner")?);
     let (mut frames, mut max_steps, mut max_ms, mut total_ms) = (0u64, 0u64, 0.0f64, 0.0f64);
-    let status = loop {
+    let plan = loop {
         let before = planner.spent();
         let start = Instant::now();
         let s = planner
             .step(budget, &mut ())
-            .map_err(|e| CliError::failed(format!("planning failed: {e}")))?;
+            .or_failed(|| "planning failed")?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
         frames += 1;
         max_steps = max_steps.max(planner.spent() - before);
         max_ms = max_ms.max(ms);
         total_ms += ms;
-        if !matches!(s, Status::Running(_)) {
-            break s;
+        if let Status::Finished(plan) = s {
+            break plan;
         }
     };
-    let (converged, plan) = match status {
-        Status::Finished(p) => (p.converged(), p),
-        Status::Running(_) => return Err(CliError::internal("still running")),
-    };
+    let converged = plan.converged();
     Ok(FramesJson {
         frame_budget: budget,
         frames,

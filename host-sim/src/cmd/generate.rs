@@ -7,62 +7,75 @@
 //! `--min-motion-m`. η is drawn from the seeded xoshiro256++ stream, uniform in
 //! `[−B, B]^(2K)`, so the same arguments always write the same tasks.
 
-use crate::cmd::record::relative;
-use crate::cmd::rollout::TRUTH_SUBSTEPS;
+use crate::args::{List, RobotArgs, parse_list};
+use crate::artifacts::TRUTH_SUBSTEPS;
 use crate::error::CliError;
 use crate::output::OutDir;
-use crate::urdf::{self, Chain};
+use crate::records::relative_text;
+use crate::urdf::Chain;
 use crate::with_dims;
 use reactionless::random::Stream;
-use reactionless::{Motion, Pose, Robot, Task, TruthModel};
+use reactionless::{IDENTITY_WXYZ, Motion, Pose, Task, TruthModel};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-/// What to generate.
-#[derive(Debug, Clone)]
-pub struct GenerateOptions {
-    /// Robot.
-    pub urdf: PathBuf,
-    /// End-effector link (default: the only leaf).
-    pub ee: Option<String>,
-    /// Start configuration (deg).
-    pub start_deg: Vec<f64>,
-    /// How many tasks.
-    pub count: u32,
+/// Write COUNT task files with reachable targets for a robot (random feasible η rolled
+/// out from the start, truth-model end pose as target).
+#[derive(Debug, Clone, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Start configuration (deg), comma-separated.
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_list)]
+    start_deg: List,
+    /// Number of tasks.
+    #[arg(long)]
+    count: u32,
     /// Seed of the stream that draws η.
-    pub seed: u64,
-    /// Output directory.
-    pub out: PathBuf,
+    #[arg(long)]
+    seed: u64,
+    /// Output directory (replaced atomically).
+    #[arg(long)]
+    out: PathBuf,
     /// Motion duration (s).
-    pub tf_s: f64,
+    #[arg(long, default_value_t = 30.0)]
+    tf_s: f64,
     /// Integration step (s).
-    pub dt_s: f64,
-    /// Smallest end-effector displacement (m).
-    pub min_motion_m: f64,
-    /// Half-width of the η box.
-    pub eta_bound: f64,
+    #[arg(long, default_value_t = 0.01)]
+    dt_s: f64,
+    /// Smallest end-effector displacement of a target from the start (m, > 0).
+    #[arg(long, default_value_t = 0.2)]
+    min_motion_m: f64,
+    /// Half-width of the box η is drawn from (> 0).
+    #[arg(long, default_value_t = 5.0)]
+    eta_bound: f64,
 }
 
 /// Tries per requested task before giving up.
 const ATTEMPTS_PER_TASK: u32 = 200;
 
-/// Runs the subcommand.
-pub fn run(o: &GenerateOptions) -> Result<(), CliError> {
-    if o.count == 0 {
-        return Err(CliError::input("--count must be at least 1"));
+/// A finite number > 0, or an error naming `flag`.
+fn positive(flag: &str, v: f64) -> Result<(), CliError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(CliError::input(format!(
+            "{flag} {v} must be a finite number > 0"
+        )))
     }
-    for (v, name) in [
-        (o.min_motion_m, "--min-motion-m"),
-        (o.eta_bound, "--eta-bound"),
-    ] {
-        if !(v.is_finite() && v >= 0.0) || (name == "--eta-bound" && v == 0.0) {
-            return Err(CliError::input(format!(
-                "{name} {v} must be a finite number > 0"
-            )));
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        if self.count == 0 {
+            return Err(CliError::input("--count must be at least 1"));
         }
+        positive("--min-motion-m", self.min_motion_m)?;
+        positive("--eta-bound", self.eta_bound)?;
+        let chain = self.robot.load()?;
+        with_dims!(chain.dof(), generate_n, &chain, &self)
     }
-    let chain = urdf::load(&o.urdf, o.ee.as_deref())?;
-    with_dims!(chain.dof(), generate_n, &chain, o)
 }
 
 fn fmt_list(v: &[f64]) -> String {
@@ -73,34 +86,31 @@ fn fmt_list(v: &[f64]) -> String {
     format!("[{}]", items.join(", "))
 }
 
-fn generate_n<const N: usize, const K: usize>(
-    chain: &Chain,
-    o: &GenerateOptions,
-) -> Result<(), CliError> {
-    let robot = Robot::new(&chain.desc::<N>()?)
-        .map_err(|e| CliError::input(format!("{}: {}", o.urdf.display(), chain.explain(&e))))?;
-    if o.start_deg.len() != N {
+fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result<(), CliError> {
+    let robot = chain.robot::<N>(&o.robot.urdf)?;
+    let start_deg = &o.start_deg.0;
+    if start_deg.len() != N {
         return Err(CliError::input(format!(
             "--start-deg has {} values; the robot has {N} joints",
-            o.start_deg.len()
+            start_deg.len()
         )));
     }
     let mut q0 = [0.0; N];
-    for (q, d) in q0.iter_mut().zip(&o.start_deg) {
+    for (q, d) in q0.iter_mut().zip(start_deg) {
         *q = d.to_radians();
     }
     let motion = Motion::new(o.tf_s, o.dt_s, 1)
         .map_err(|e| CliError::input(format!("--tf-s {} --dt-s {}: {e}", o.tf_s, o.dt_s)))?;
     let identity = Pose {
         position: [0.0; 3],
-        quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+        quat_wxyz: IDENTITY_WXYZ,
     };
     let probe = Task::<N, K>::new(robot, q0, identity, motion).map_err(|e| {
         let msg = match e {
             reactionless::Error::StartOutsideLimits(j) => {
                 format!(
                     "--start-deg: {} is outside the limits of {}",
-                    o.start_deg[usize::from(j) - 1],
+                    start_deg[usize::from(j) - 1],
                     chain.joint_name(j)
                 )
             }
@@ -144,9 +154,7 @@ fn generate_n<const N: usize, const K: usize>(
         )));
     }
     let dir = OutDir::create(&o.out)?;
-    let urdf_rel = relative(&o.out, &o.urdf)?
-        .to_string_lossy()
-        .replace('\\', "/");
+    let urdf_rel = relative_text(&o.out, &o.robot.urdf)?;
     for (k, (eta, target, moved)) in found.iter().enumerate() {
         let mut t = String::new();
         let _ = writeln!(
@@ -160,12 +168,12 @@ fn generate_n<const N: usize, const K: usize>(
             fmt_list(eta)
         );
         let _ = writeln!(t, "[robot]\nurdf = {urdf_rel:?}");
-        if let Some(ee) = &o.ee {
+        if let Some(ee) = &o.robot.ee {
             let _ = writeln!(t, "ee_link = {ee:?}");
         } else {
             let _ = writeln!(t, "ee_link = {:?}", chain.ee_link);
         }
-        let _ = writeln!(t, "\n[start]\nq_deg = {}\n", fmt_list(&o.start_deg));
+        let _ = writeln!(t, "\n[start]\nq_deg = {}\n", fmt_list(start_deg));
         let _ = writeln!(
             t,
             "[target]\nposition_m = {}\nquat_wxyz = {}\n",
@@ -187,9 +195,4 @@ fn generate_n<const N: usize, const K: usize>(
         path.display()
     );
     Ok(())
-}
-
-/// The urdf path relative to the output directory, for tests.
-pub fn urdf_relative(out: &Path, urdf: &Path) -> Result<String, CliError> {
-    Ok(relative(out, urdf)?.to_string_lossy().replace('\\', "/"))
 }

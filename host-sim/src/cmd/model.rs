@@ -2,13 +2,25 @@
 //!
 //! Base at the origin with identity attitude (the base frame). Matrices are arrays of rows.
 
-use crate::error::CliError;
-use crate::urdf::{self, Chain};
+use crate::args::{List, RobotArgs, parse_list};
+use crate::error::{CliError, Context};
+use crate::urdf::Chain;
 use crate::with_dims;
 use nalgebra::SMatrix;
-use reactionless::{Basis, Frames, Momentum, Robot, generalized_jacobian};
+use reactionless::{Basis, Frames, Momentum, generalized_jacobian};
 use serde::Serialize;
 use std::path::Path;
+
+/// Model quantities at one configuration, as JSON on stdout: com, hb, hbm, rns_basis, jg,
+/// ee (base at the origin, identity attitude).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Joint angles (deg), comma-separated.
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_list)]
+    q_deg: List,
+}
 
 #[derive(Serialize)]
 struct EePose {
@@ -42,14 +54,15 @@ fn rows<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<Vec<f64>>
     m.row_iter().map(|r| r.iter().copied().collect()).collect()
 }
 
-/// Runs the subcommand.
-pub fn run(urdf_path: &Path, ee: Option<&str>, q_deg: &[f64]) -> Result<(), CliError> {
-    let chain = urdf::load(urdf_path, ee)?;
-    let report = with_dims!(chain.dof(), report, &chain, urdf_path, q_deg)?;
-    let text = serde_json::to_string_pretty(&report)
-        .map_err(|e| CliError::internal(format!("JSON: {e}")))?;
-    println!("{text}");
-    Ok(())
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        let chain = self.robot.load()?;
+        let report = with_dims!(chain.dof(), report, &chain, &self.robot.urdf, &self.q_deg.0)?;
+        let text = serde_json::to_string_pretty(&report).or_internal(|| "JSON")?;
+        println!("{text}");
+        Ok(())
+    }
 }
 
 fn report<const N: usize, const K: usize>(
@@ -57,8 +70,7 @@ fn report<const N: usize, const K: usize>(
     urdf_path: &Path,
     q_deg: &[f64],
 ) -> Result<ModelReport, CliError> {
-    let robot = Robot::new(&chain.desc::<N>()?)
-        .map_err(|e| CliError::input(format!("{}: {}", urdf_path.display(), chain.explain(&e))))?;
+    let robot = chain.robot::<N>(urdf_path)?;
     if q_deg.len() != N {
         return Err(CliError::input(format!(
             "--q-deg has {} values; the robot has {N} joints ({})",
@@ -83,8 +95,7 @@ fn report<const N: usize, const K: usize>(
             reactionless::Error::RankLoss { step: 0, cause }
         ))
     })?;
-    let jg = generalized_jacobian(&robot, &frames)
-        .map_err(|e| CliError::input(format!("generalized Jacobian: {e}")))?;
+    let jg = generalized_jacobian(&robot, &frames).or_input(|| "generalized Jacobian")?;
     let hbm = SMatrix::<f64, 3, N>::from_columns(&m.hbm);
     // σ_i(H~bm) = √λ_i(H~bm H~bmᵀ): a 3×3 symmetric eigenproblem (host-side reporting).
     let gram = hbm * hbm.transpose();

@@ -5,24 +5,16 @@
 //! outcome the planner evaluated bit for bit (checked here, so a mismatch is never written).
 //! Exit code 0 converged, 1 not converged (outputs still written), 2 bad input.
 
-use crate::cmd::rollout::{self, PoseJson};
+use crate::args::PlanArgs;
+use crate::artifacts::{PoseJson, summary, write_bundle, write_figures, write_rollout};
+use crate::drive::{self, HOST_CAPACITY};
 use crate::error::CliError;
 use crate::output::OutDir;
-use crate::taskfile::{self, LoadedTask, Overrides};
+use crate::taskfile::{self, LoadedTask};
 use crate::with_dims;
-use indicatif::{ProgressBar, ProgressStyle};
-use reactionless::{Event, Planner, PlannerConfig, RefineStop, Status};
+use reactionless::RefineStop;
 use serde::Serialize;
-use std::io::IsTerminal;
-use std::path::Path;
-use std::time::Instant;
-
-/// Swarm capacity of the host planner. It does not change results (only the task's count
-/// of particles is ever used); the flight image uses 64.
-pub const HOST_CAPACITY: usize = 256;
-
-/// Integration steps per `step` call when host-sim drives the planner.
-const SLICE: u32 = 3000;
+use std::path::PathBuf;
 
 /// `plan.json`.
 #[derive(Serialize)]
@@ -93,80 +85,28 @@ pub struct PlanOptions {
     pub plots: bool,
 }
 
-/// Runs the subcommand.
-pub fn run(task_path: &Path, out: &Path, options: PlanOptions) -> Result<(), CliError> {
-    let lt = taskfile::load(task_path)?;
-    with_dims!(lt.chain.dof(), run_n, &lt, out, options)
+/// Plan a task with C-PSO (and refinement): writes DIR/plan.json, DIR/trajectory.csv,
+/// DIR/summary.json. Exit code 0 converged, 1 not converged, 2 bad input.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Task file (TOML).
+    task: PathBuf,
+    /// Output directory (replaced atomically).
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    planning: PlanArgs,
+    /// Also write figures (PNG and SVG), convergence included.
+    #[arg(long)]
+    plots: bool,
 }
 
-/// A finished planning run.
-pub struct Finished<const N: usize, const K: usize> {
-    /// The planner's final status.
-    pub status: Status<N, K>,
-    /// gbest f per generation, then the successful f.
-    pub history: Vec<f64>,
-    /// Refinement f per trial.
-    pub refine_history: Vec<f64>,
-    /// Wall time (s).
-    pub seconds: f64,
-    /// Integration steps spent ([`Planner::spent`]).
-    pub steps: u64,
-}
-
-/// Plans `lt` with `config`, with a progress bar on a terminal.
-pub fn plan<const N: usize, const K: usize>(
-    lt: &LoadedTask,
-    config: PlannerConfig,
-    progress: bool,
-) -> Result<Finished<N, K>, CliError> {
-    let task = lt.task::<N, K>()?;
-    let mut planner: Box<Planner<N, K, HOST_CAPACITY>> =
-        Box::new(Planner::new(task, config).map_err(|e| CliError::input(format!("planner: {e}")))?);
-    let bar = if progress && std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(u64::from(config.max_iterations));
-        b.set_style(
-            ProgressStyle::with_template("{spinner} {elapsed} [{bar:30}] gen {pos}/{len} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        ProgressBar::hidden()
-    };
-    let mut history = Vec::new();
-    let mut refine_history = Vec::new();
-    let mut observer = |e: &Event| match e {
-        Event::Generation {
-            iteration,
-            best,
-            rollouts,
-        } => {
-            history.push(best.f);
-            bar.set_position(u64::from(*iteration));
-            bar.set_message(format!("best f {:.3e}, {rollouts} rollouts", best.f));
-        }
-        Event::SwarmConverged { f, .. } => {
-            history.push(*f);
-            bar.set_message(format!("C-PSO converged, f {f:.3e}; refining"));
-        }
-        Event::RefineTrial { f, .. } => refine_history.push(*f),
-        Event::Stagnation { .. } => {}
-    };
-    let start = Instant::now();
-    let status = loop {
-        match planner.step(SLICE, &mut observer) {
-            Ok(Status::Running(_)) => {}
-            Ok(s) => break s,
-            Err(e) => return Err(CliError::failed(format!("planning failed: {e}"))),
-        }
-    };
-    bar.finish_and_clear();
-    Ok(Finished {
-        status,
-        history,
-        refine_history,
-        seconds: start.elapsed().as_secs_f64(),
-        steps: planner.spent(),
-    })
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        let lt = taskfile::load(&self.task)?;
+        with_dims!(lt.chain.dof(), run_n, &lt, &self)
+    }
 }
 
 fn stop_name(s: RefineStop) -> &'static str {
@@ -177,49 +117,24 @@ fn stop_name(s: RefineStop) -> &'static str {
     }
 }
 
-fn run_n<const N: usize, const K: usize>(
-    lt: &LoadedTask,
-    out: &Path,
-    options: PlanOptions,
-) -> Result<(), CliError> {
-    let PlanOptions {
-        seed,
-        refine,
-        plots,
-    } = options;
-    let config = lt.planner(
-        HOST_CAPACITY,
-        &Overrides {
-            seed,
-            refine_tolerance: refine,
-        },
-    )?;
+fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result<(), CliError> {
+    let config = lt.planner(HOST_CAPACITY, &args.planning.overrides())?;
     let task = lt.task::<N, K>()?;
-    let done = plan::<N, K>(lt, config, true)?;
-    let (converged, p) = match done.status {
-        Status::Finished(p) => (p.converged(), p),
-        Status::Running(_) => return Err(CliError::internal("planner still running")),
-    };
-    let dir = OutDir::create(out)?;
-    let run = rollout::write_rollout(&task, &p.eta, Some(&dir), plots)?;
+    let done = drive::plan::<N, K>(lt, config, true)?;
+    let p = done.plan;
+    let converged = p.converged();
+    let dir = OutDir::create(&args.out)?;
+    let run = write_rollout(&task, &p.eta, Some(&dir), args.plots)?;
     if run.outcome != p.outcome {
         return Err(CliError::internal(
             "the re-run rollout differs from the one the planner evaluated",
         ));
     }
     let truth = &run.truth;
-    dir.write_json(
-        "summary.json",
-        &rollout::summary(&task, &p.eta, &run.outcome, truth),
-    )?;
-    rollout::write_bundle(
-        lt,
-        &dir,
-        Some(config.seed),
-        config.refine().map(|r| r.tolerance),
-    )?;
+    dir.write_json("summary.json", &summary(&task, &p.eta, &run.outcome, truth))?;
+    write_bundle(lt, &dir, Some(config.seed), config.refine_tolerance)?;
     if let Some(trace) = run.trace {
-        rollout::write_figures(lt, &task, trace, Some(done.history.clone()), &dir)?;
+        write_figures(lt, &task, trace, Some(done.history.clone()), &dir)?;
     }
     let json = PlanJson {
         status: if converged {
@@ -242,7 +157,7 @@ fn run_n<const N: usize, const K: usize>(
         best_f_history: done.history,
         swarm_f: p.swarm_f,
         refine: p.refine.map(|r| RefineJson {
-            tolerance: config.refine().map_or(f64::NAN, |c| c.tolerance),
+            tolerance: config.refine_tolerance.unwrap_or(f64::NAN),
             stop: stop_name(r.stop),
             iterations: r.iterations,
             rollouts: r.rollouts,

@@ -17,9 +17,8 @@
 //!
 //! Exit 0 only when bit-identical and within budgets; 1 otherwise; 2 for bad input.
 
-use crate::cmd::plan::HOST_CAPACITY;
-use crate::cmd::record::{Outputs, PoseBits, bits, first_difference};
-use crate::error::CliError;
+use crate::error::{CliError, Context};
+use crate::records::{Outputs, PoseBits, bits, first_difference, outputs_of};
 use crate::taskfile::{self, LoadedTask, Overrides};
 use object::{Object, ObjectSection, ObjectSymbol};
 use reactionless::Pose;
@@ -114,14 +113,14 @@ pub fn task_block(lt: &LoadedTask) -> Result<Vec<u8>, CliError> {
         planner,
     };
     let mut buf = vec![0u8; block_len(7)];
-    encode(&block, &mut buf).map_err(|e| CliError::internal(e.to_string()))?;
+    encode(&block, &mut buf).or_internal(|| "task block")?;
     Ok(buf)
 }
 
 fn build(root: &Path) -> Result<PathBuf, CliError> {
     let o = Command::new(root.join("scripts/build-firmware.sh"))
         .output()
-        .map_err(|e| CliError::input(format!("cannot run scripts/build-firmware.sh: {e}")))?;
+        .or_input(|| "cannot run scripts/build-firmware.sh")?;
     if !o.status.success() {
         return Err(CliError::input(format!(
             "building the flight image failed (needs Debian's rustc-web, rust-web-src, lld; see .ci/run):\n{}",
@@ -149,7 +148,7 @@ struct Elf {
 }
 
 fn read_elf(bytes: &[u8]) -> Result<Elf, CliError> {
-    let file = object::File::parse(bytes).map_err(|e| CliError::input(format!("ELF: {e}")))?;
+    let file = object::File::parse(bytes).or_input(|| "ELF")?;
     let mut markers = Vec::new();
     for name in MARKERS {
         let sym = file
@@ -181,7 +180,7 @@ fn read_elf(bytes: &[u8]) -> Result<Elf, CliError> {
 /// Decodes the image's defmt stream into text lines.
 fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Vec<String>, CliError> {
     let table = defmt_decoder::Table::parse(elf)
-        .map_err(|e| CliError::input(format!("defmt table: {e}")))?
+        .or_input(|| "defmt table")?
         .ok_or_else(|| CliError::input("the ELF has no defmt table"))?;
     let mut decoder = table.new_stream_decoder();
     decoder.received(stream);
@@ -295,8 +294,25 @@ fn target_outputs(lines: &[String]) -> Result<(Outputs, u64, u64), CliError> {
     Ok((outputs, stack, u64::from(num("frames")?)))
 }
 
+/// Instruction figures from the plugin's log.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Instructions {
+    /// One integration step.
+    step: u64,
+    /// One full rollout.
+    rollout: u64,
+    /// The most in one `step` call.
+    max_call: u64,
+    /// Mean per `step` call.
+    mean_call: f64,
+    /// `step` calls.
+    calls: u64,
+    /// The whole run, boot to exit.
+    total: u64,
+}
+
 /// Instruction figures from the plugin's log: per step, per rollout, max and mean per call.
-fn instruction_stats(log: &str) -> Result<(u64, u64, u64, f64, u64, u64), CliError> {
+fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
     let mut open: [Option<u64>; 3] = [None; 3];
     let (mut step, mut rollout, mut max_call, mut sum, mut calls, mut total) =
         (0, 0, 0, 0u64, 0u64, 0);
@@ -336,23 +352,42 @@ fn instruction_stats(log: &str) -> Result<(u64, u64, u64, f64, u64, u64), CliErr
             "the instruction-counting plugin logged nothing",
         ));
     }
-    Ok((
+    Ok(Instructions {
         step,
         rollout,
         max_call,
-        sum as f64 / calls as f64,
+        mean_call: sum as f64 / calls as f64,
         calls,
         total,
-    ))
+    })
 }
 
-/// Runs the subcommand.
-pub fn run(
-    task_path: &Path,
+/// Plan a task on the flight target (the Cortex-M7 image under QEMU) and compare bit for
+/// bit with the host; report instructions per step, per rollout and per call, stack,
+/// flash and static RAM. Exit 0 only when bit-identical and within budgets.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Task file (TOML) for the flight robot (7 joints).
+    task: PathBuf,
+    /// Print one JSON object.
+    #[arg(long)]
     json: bool,
-    build_first: bool,
+    /// Use the image already built instead of building it first.
+    #[arg(long)]
+    no_build: bool,
+    /// Give up on the emulation after this many seconds.
+    #[arg(long, default_value_t = 1800)]
     timeout_s: u64,
-) -> Result<(), CliError> {
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        run(&self.task, self.json, !self.no_build, self.timeout_s)
+    }
+}
+
+fn run(task_path: &Path, json: bool, build_first: bool, timeout_s: u64) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
     let block = task_block(&lt)?;
     let root = repo_root();
@@ -369,10 +404,13 @@ pub fn run(
         ))
     })?;
     let elf = read_elf(&elf_bytes)?;
-    let work = tempfile_dir()?;
-    let block_path = work.join("task.bin");
-    let log_path = work.join("insn.log");
-    std::fs::write(&block_path, &block).map_err(|e| CliError::input(e.to_string()))?;
+    let work = tempfile::Builder::new()
+        .prefix("host-sim-target-")
+        .tempdir()
+        .or_input(|| "cannot create a temporary directory")?;
+    let block_path = work.path().join("task.bin");
+    let log_path = work.path().join("insn.log");
+    std::fs::write(&block_path, &block).or_input(|| block_path.display().to_string())?;
     let mut plugin_arg = format!("{},out={}", plugin.display(), log_path.display());
     for m in &elf.markers {
         plugin_arg.push_str(&format!(",mark={m:x}"));
@@ -400,7 +438,7 @@ pub fn run(
         .arg("-kernel")
         .arg(&elf_path)
         .output()
-        .map_err(|e| CliError::input(format!("cannot run qemu-system-arm: {e}")))?;
+        .or_input(|| "cannot run qemu-system-arm")?;
     let qemu_seconds = start.elapsed().as_secs_f64();
     let lines = decode_defmt(&elf_bytes, &out.stdout)?;
     if !out.status.success() {
@@ -419,13 +457,21 @@ pub fn run(
                 .and_then(|(_, v)| v.parse().ok())
         })
         .ok_or_else(|| CliError::failed("the image reported no sizes"))?;
-    let log = std::fs::read_to_string(&log_path)
-        .map_err(|e| CliError::failed(format!("plugin log: {e}")))?;
-    let (step, rollout, max_call, mean_call, calls, total) = instruction_stats(&log)?;
-    // The same task on the host.
-    let (on_host, _, _) = crate::with_dims!(lt.chain.dof(), host_outputs, &lt)?;
+    let log = std::fs::read_to_string(&log_path).or_failed(|| "plugin log")?;
+    let Instructions {
+        step,
+        rollout,
+        max_call,
+        mean_call,
+        calls,
+        total,
+    } = instruction_stats(&log)?;
+    // The same task on the host (its capacity differs from the image's 64: results do not
+    // depend on it).
+    let on_host =
+        crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &Overrides::default())?.outputs;
     let diff = first_difference(&on_host, &on_target)
-        .map(|(what, host, target)| format!("{what}: host {host}, target {target}"));
+        .map(|d| format!("{}: host {}, target {}", d.what, d.first, d.second));
     let within = stack <= STACK_BUDGET && elf.static_ram <= STATIC_RAM_BUDGET;
     let report = TargetJson {
         bit_identical: diff.is_none(),
@@ -449,7 +495,6 @@ pub fn run(
         qemu_seconds,
         elf: elf_path.display().to_string(),
     };
-    let _ = std::fs::remove_dir_all(&work);
     if calls != frames {
         return Err(CliError::failed(format!(
             "the plugin saw {calls} calls, the image reported {frames} frames"
@@ -458,7 +503,7 @@ pub fn run(
     if json {
         println!(
             "{}",
-            serde_json::to_string(&report).map_err(|e| CliError::internal(e.to_string()))?
+            serde_json::to_string(&report).or_internal(|| "report JSON")?
         );
     } else {
         println!(
@@ -489,19 +534,4 @@ pub fn run(
         )),
         (None, true) => Ok(()),
     }
-}
-
-fn host_outputs<const N: usize, const K: usize>(
-    lt: &LoadedTask,
-) -> Result<(Outputs, u64, Option<f64>), CliError> {
-    // The flight capacity is 64, the host's 256: results do not depend on it.
-    let _ = HOST_CAPACITY;
-    crate::cmd::record::outputs_of::<N, K>(lt, None, None)
-}
-
-fn tempfile_dir() -> Result<PathBuf, CliError> {
-    let dir = std::env::temp_dir().join(format!("host-sim-target-{}", std::process::id()));
-    std::fs::create_dir_all(&dir)
-        .map_err(|e| CliError::input(format!("{}: {e}", dir.display())))?;
-    Ok(dir)
 }

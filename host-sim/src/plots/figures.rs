@@ -1,106 +1,8 @@
-//! Plots of a trajectory and a plan (plotters; PNG and SVG): the paper's Figs. 3–6 and more.
-//!
-//! Owns [`PlotData`] (everything a figure needs, in SI units as computed) and
-//! [`write_plots`]. Angles are shown in degrees on the axes (a report), labelled with units.
-//!
-//! Text needs no system fonts: plotters draws it with `ab_glyph` from a font embedded in the
-//! binary (a subset of DejaVu Sans, `host-sim/assets/`), registered on first use. The SVGs
-//! carry their text as `<text>` elements (family `sans-serif`); the embedded font only sizes it.
-//!
-//! Every figure is checked and laid out before any file is written, so bad input writes
-//! nothing. Non-finite samples are left out (the line breaks there); empty or mismatched
-//! vectors are an error.
+//! Figure specifications: what each figure shows, checked and laid out before anything is
+//! drawn (backend independent).
 
-use crate::error::CliError;
-use plotters::coord::Shift;
-use plotters::coord::ranged1d::{Ranged, ValueFormatter};
-use plotters::element::DashedPathElement;
-use plotters::prelude::*;
-use std::path::Path;
-use std::sync::OnceLock;
-
-/// Everything the figures need, as computed by host-sim (SI units, radians).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlotData {
-    /// Joint names (URDF), one per joint.
-    pub joint_names: Vec<String>,
-    /// Sample times (s), `t[0] = 0`, last = t_f.
-    pub t: Vec<f64>,
-    /// Joint positions per sample (rad): `q[sample][joint]`.
-    pub q: Vec<Vec<f64>>,
-    /// Joint rates per sample (rad/s): `qd[sample][joint]`.
-    pub qd: Vec<Vec<f64>>,
-    /// Lower joint limits (rad).
-    pub lower: Vec<f64>,
-    /// Upper joint limits (rad).
-    pub upper: Vec<f64>,
-    /// Joint rate limit per joint (rad/s).
-    pub qd_limit: Vec<f64>,
-    /// End-effector position per sample, planner model (m, inertial frame).
-    pub ee: Vec<[f64; 3]>,
-    /// Target position (m, inertial frame).
-    pub target: [f64; 3],
-    /// Base rotation angle per sample, truth model (deg).
-    pub base_angle_deg: Vec<f64>,
-    /// gbest's f after each C-PSO generation (only for plans).
-    pub best_f_history: Option<Vec<f64>>,
-}
-
-/// Writes the figures into `dir` as PNG and SVG; returns the file names written.
-///
-/// Figures: `joints`, `joint_rates`, `ee_path`, `base_attitude`, and `convergence` when
-/// [`PlotData::best_f_history`] is present; each as `NAME.png` and `NAME.svg`. `dir` must
-/// exist. Bad input (empty or mismatched vectors, nothing finite to plot) and write
-/// failures are [`CliError::input`] errors; input is checked before any file is written.
-pub fn write_plots(dir: &Path, data: &PlotData) -> Result<Vec<String>, CliError> {
-    let err = |e: String| CliError::input(format!("writing plots: {e}"));
-    ensure_font().map_err(err)?;
-    let figures = figures(data).map_err(err)?;
-    let mut written = Vec::with_capacity(2 * figures.len());
-    for fig in &figures {
-        let png = format!("{}.png", fig.name);
-        {
-            let path = dir.join(&png);
-            let root = BitMapBackend::new(&path, fig.size).into_drawing_area();
-            draw_figure(&root, fig)
-                .and_then(|()| root.present().map_err(|e| e.to_string()))
-                .map_err(|e| err(format!("{png}: {e}")))?;
-        }
-        written.push(png);
-        let svg = format!("{}.svg", fig.name);
-        {
-            let path = dir.join(&svg);
-            let root = SVGBackend::new(&path, fig.size).into_drawing_area();
-            draw_figure(&root, fig)
-                .and_then(|()| root.present().map_err(|e| e.to_string()))
-                .map_err(|e| err(format!("{svg}: {e}")))?;
-        }
-        written.push(svg);
-    }
-    Ok(written)
-}
-
-// ---------------------------------------------------------------------------------------
-// Font
-
-/// A subset of DejaVu Sans (Latin-1, Greek, a few symbols); licence next to it.
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans-subset.ttf");
-
-/// Registers [`FONT`] with plotters once, under every generic family name plotters uses.
-fn ensure_font() -> Result<(), String> {
-    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
-    DONE.get_or_init(|| {
-        for family in ["sans-serif", "serif", "monospace"] {
-            plotters::style::register_font(family, FontStyle::Normal, FONT)
-                .map_err(|_| "the embedded font does not parse".to_string())?;
-        }
-        Ok(())
-    })
-    .clone()
-}
-
-// ---------------------------------------------------------------------------------------
-// Figure descriptions (backend independent, checked before drawing)
+use super::PlotData;
+use plotters::style::{BLACK, RGBColor};
 
 /// Tab10 colours, one per joint (cycled).
 const COLOURS: [RGBColor; 10] = [
@@ -121,17 +23,17 @@ fn colour(i: usize) -> RGBColor {
 }
 
 /// One image file (pair): a title and one or more panels side by side.
-struct Figure {
-    name: &'static str,
-    size: (u32, u32),
+pub(super) struct Figure {
+    pub(super) name: &'static str,
+    pub(super) size: (u32, u32),
     /// Title above all panels (multi-panel figures); single panels use their own caption.
-    title: Option<String>,
-    panels: Vec<Panel>,
+    pub(super) title: Option<String>,
+    pub(super) panels: Vec<Panel>,
 }
 
 /// How tick labels are written.
 #[derive(Clone, Copy, PartialEq)]
-enum Ticks {
+pub(super) enum Ticks {
     /// Decimal, at most 6 decimals, trailing zeros trimmed.
     Plain,
     /// Scientific notation with `digits` decimals; values closer to zero than `zero` are
@@ -142,53 +44,53 @@ enum Ticks {
 }
 
 /// One chart.
-struct Panel {
-    title: String,
-    x_label: &'static str,
-    y_label: &'static str,
-    x: (f64, f64),
-    y: (f64, f64),
-    y_log: bool,
-    x_ticks: Ticks,
-    y_ticks: Ticks,
+pub(super) struct Panel {
+    pub(super) title: String,
+    pub(super) x_label: &'static str,
+    pub(super) y_label: &'static str,
+    pub(super) x: (f64, f64),
+    pub(super) y: (f64, f64),
+    pub(super) y_log: bool,
+    pub(super) x_ticks: Ticks,
+    pub(super) y_ticks: Ticks,
     /// At most this many x labels (`None`: plotters' default).
-    x_label_count: Option<usize>,
-    lines: Vec<Line>,
-    markers: Vec<Marker>,
+    pub(super) x_label_count: Option<usize>,
+    pub(super) lines: Vec<Line>,
+    pub(super) markers: Vec<Marker>,
 }
 
 #[derive(Clone, Copy, PartialEq)]
-enum LineKind {
+pub(super) enum LineKind {
     Data,
     Limit,
 }
 
 /// A polyline, broken where samples were not finite.
-struct Line {
-    label: Option<String>,
-    colour: RGBColor,
-    kind: LineKind,
+pub(super) struct Line {
+    pub(super) label: Option<String>,
+    pub(super) colour: RGBColor,
+    pub(super) kind: LineKind,
     /// Also mark every sample with a dot (a lone sample always gets one).
-    dots: bool,
-    segments: Vec<Vec<(f64, f64)>>,
+    pub(super) dots: bool,
+    pub(super) segments: Vec<Vec<(f64, f64)>>,
 }
 
 #[derive(Clone, Copy)]
-enum Shape {
+pub(super) enum Shape {
     Circle,
     Square,
     Cross,
 }
 
-struct Marker {
-    label: &'static str,
-    colour: RGBColor,
-    shape: Shape,
-    at: (f64, f64),
+pub(super) struct Marker {
+    pub(super) label: &'static str,
+    pub(super) colour: RGBColor,
+    pub(super) shape: Shape,
+    pub(super) at: (f64, f64),
 }
 
 /// Checks `data` and lays out every figure.
-fn figures(data: &PlotData) -> Result<Vec<Figure>, String> {
+pub(super) fn figures(data: &PlotData) -> Result<Vec<Figure>, String> {
     check_shapes(data)?;
     let mut figs = vec![
         joints_figure(data)?,
@@ -579,213 +481,5 @@ fn single(name: &'static str, size: (u32, u32), panel: Panel) -> Figure {
         size,
         title: None,
         panels: vec![panel],
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// Drawing (generic over the backend)
-
-fn draw_figure<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    fig: &Figure,
-) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    root.fill(&WHITE).map_err(e)?;
-    let area = match &fig.title {
-        Some(title) => root
-            .titled(title, ("sans-serif", 26).into_font())
-            .map_err(e)?,
-        None => root.clone(),
-    };
-    let areas = area.split_evenly((1, fig.panels.len().max(1)));
-    for (panel, a) in fig.panels.iter().zip(&areas) {
-        draw_panel(a, panel)?;
-    }
-    Ok(())
-}
-
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> Result<(), String> {
-    let mut builder = ChartBuilder::on(area);
-    builder
-        .caption(&p.title, ("sans-serif", 22).into_font())
-        .margin(12)
-        .x_label_area_size(50)
-        .y_label_area_size(match p.y_ticks {
-            Ticks::Sci { .. } => 95,
-            _ => 75,
-        });
-    let x = p.x.0..p.x.1;
-    let y = p.y.0..p.y.1;
-    if p.y_log {
-        let chart = builder
-            .build_cartesian_2d(x, y.log_scale())
-            .map_err(|e| e.to_string())?;
-        fill_chart(chart, p)
-    } else {
-        let chart = builder
-            .build_cartesian_2d(x, y)
-            .map_err(|e| e.to_string())?;
-        fill_chart(chart, p)
-    }
-}
-
-fn tick_label(ticks: Ticks, v: f64) -> String {
-    match ticks {
-        Ticks::Plain => {
-            // Like plotters' default, but without float noise such as 0.30000000000000004.
-            let s = format!("{v:.6}");
-            let s = s.trim_end_matches('0').trim_end_matches('.');
-            if s == "-0" { "0".into() } else { s.into() }
-        }
-        Ticks::Sci { zero, .. } if v.abs() <= zero => "0".into(),
-        Ticks::Sci { digits, .. } => format!("{v:.digits$e}"),
-        Ticks::Integer => format!("{v:.0}"),
-    }
-}
-
-fn fill_chart<'a, DB, X, Y>(
-    mut chart: ChartContext<'a, DB, Cartesian2d<X, Y>>,
-    p: &Panel,
-) -> Result<(), String>
-where
-    DB: DrawingBackend + 'a,
-    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
-    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
-{
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let x_fmt = |v: &f64| tick_label(p.x_ticks, *v);
-    let y_fmt = |v: &f64| tick_label(p.y_ticks, *v);
-    let mut mesh = chart.configure_mesh();
-    mesh.x_desc(p.x_label)
-        .y_desc(p.y_label)
-        .axis_desc_style(("sans-serif", 18))
-        .label_style(("sans-serif", 14))
-        .x_label_formatter(&x_fmt)
-        .y_label_formatter(&y_fmt)
-        .bold_line_style(RGBColor(200, 200, 200))
-        .light_line_style(RGBColor(244, 244, 244));
-    if let Some(n) = p.x_label_count {
-        mesh.x_labels(n);
-    }
-    mesh.draw().map_err(e)?;
-
-    let mut legend = false;
-    for line in &p.lines {
-        let style = match line.kind {
-            LineKind::Data => line.colour.stroke_width(2),
-            LineKind::Limit => line.colour.mix(0.8).stroke_width(1),
-        };
-        let mut annotated = false;
-        // An empty segment list still gets its legend entry.
-        let segs: &[Vec<(f64, f64)>] = if line.segments.is_empty() {
-            &[Vec::new()]
-        } else {
-            &line.segments
-        };
-        for seg in segs {
-            let ann = match line.kind {
-                LineKind::Data => chart
-                    .draw_series(LineSeries::new(seg.iter().copied(), style))
-                    .map_err(e)?,
-                LineKind::Limit => chart
-                    .draw_series(DashedLineSeries::new(seg.iter().copied(), 8, 5, style))
-                    .map_err(e)?,
-            };
-            if let (Some(label), false) = (&line.label, annotated) {
-                annotated = true;
-                legend = true;
-                let kind = line.kind;
-                ann.label(label.as_str()).legend(move |(x, y)| {
-                    let pts = vec![(x, y), (x + 24, y)];
-                    match kind {
-                        LineKind::Data => PathElement::new(pts, style).into_dyn(),
-                        LineKind::Limit => DashedPathElement::new(pts, 5, 3, style).into_dyn(),
-                    }
-                });
-            }
-            if line.dots || seg.len() == 1 {
-                let dot = line.colour.filled();
-                chart
-                    .draw_series(seg.iter().map(|&at| Circle::new(at, 3, dot)))
-                    .map_err(e)?;
-            }
-        }
-    }
-    for m in &p.markers {
-        let style = m.colour.filled();
-        let ann = match m.shape {
-            Shape::Circle => chart
-                .draw_series(std::iter::once(Circle::new(m.at, 7, style)))
-                .map_err(e)?,
-            Shape::Square => chart
-                .draw_series(std::iter::once(
-                    EmptyElement::at(m.at) + Rectangle::new([(-7, -7), (7, 7)], style),
-                ))
-                .map_err(e)?,
-            Shape::Cross => chart
-                .draw_series(std::iter::once(Cross::new(
-                    m.at,
-                    8,
-                    m.colour.stroke_width(3),
-                )))
-                .map_err(e)?,
-        };
-        let shape = m.shape;
-        let colour = m.colour;
-        ann.label(m.label).legend(move |(x, y)| match shape {
-            Shape::Circle => Circle::new((x + 12, y), 6, style).into_dyn(),
-            Shape::Square => Rectangle::new([(x + 6, y - 6), (x + 18, y + 6)], style).into_dyn(),
-            Shape::Cross => Cross::new((x + 12, y), 7, colour.stroke_width(3)).into_dyn(),
-        });
-        legend = true;
-    }
-    if legend {
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(legend_corner(p))
-            .draw()
-            .map_err(e)?;
-    }
-    Ok(())
-}
-
-/// The corner whose neighbourhood (about a third of each axis) holds the fewest data
-/// points and markers, so that the legend hides as little as possible.
-fn legend_corner(p: &Panel) -> SeriesLabelPosition {
-    let frac = |v: f64, (lo, hi): (f64, f64), log: bool| {
-        if log {
-            (v.ln() - lo.ln()) / (hi.ln() - lo.ln())
-        } else {
-            (v - lo) / (hi - lo)
-        }
-    };
-    let points = p
-        .lines
-        .iter()
-        .filter(|l| l.kind == LineKind::Data)
-        .flat_map(|l| l.segments.iter().flatten())
-        .chain(p.markers.iter().map(|m| &m.at))
-        .map(|&(x, y)| (frac(x, p.x, false), frac(y, p.y, p.y_log)));
-    // Upper right, upper left, lower right, lower left: (right?, upper?).
-    let corners = [(true, true), (false, true), (true, false), (false, false)];
-    let mut counts = [0usize; 4];
-    for (fx, fy) in points {
-        for (count, &(right, upper)) in counts.iter_mut().zip(&corners) {
-            let in_x = if right { fx > 0.62 } else { fx < 0.38 };
-            let in_y = if upper { fy > 0.62 } else { fy < 0.38 };
-            if in_x && in_y {
-                *count += 1;
-            }
-        }
-    }
-    let best = (0..4).min_by_key(|&i| counts[i]).unwrap_or(0);
-    match best {
-        1 => SeriesLabelPosition::UpperLeft,
-        2 => SeriesLabelPosition::LowerRight,
-        3 => SeriesLabelPosition::LowerLeft,
-        _ => SeriesLabelPosition::UpperRight,
     }
 }

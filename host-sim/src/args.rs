@@ -1,0 +1,152 @@
+//! Command-line values shared by several subcommands, parsed one way everywhere.
+//!
+//! Owns [`List`] (comma-separated numbers, negative values allowed), [`parse_seeds`] (`3`,
+//! `1,2,5`, `1..10`), [`RobotArgs`] (`--urdf`, `--ee`), [`PlanArgs`] (the flags of every subcommand that plans, turned into
+//! [`Overrides`] of the task file) and the η helpers [`parse_eta`] / [`eta_error`], which
+//! name the `--eta` flag in their messages.
+
+use crate::error::CliError;
+use crate::taskfile::Overrides;
+use crate::urdf::{self, Chain};
+use reactionless::{Error as CoreError, Param, eta_pairs};
+use std::path::PathBuf;
+
+/// A comma-separated list of numbers (negative values allowed: `--q-deg -90,45,0`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct List(pub Vec<f64>);
+
+/// Parses a [`List`] (clap value parser).
+pub fn parse_list(s: &str) -> Result<List, String> {
+    s.split(',')
+        .map(|t| {
+            let t = t.trim();
+            t.parse::<f64>()
+                .map_err(|_| format!("'{t}' is not a number (expected a comma-separated list)"))
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(List)
+}
+
+/// Most seeds one list may name.
+const MAX_SEEDS: u64 = 1_000_000;
+
+/// Parses a seed list (clap value parser): comma-separated items, each a seed `3` or an
+/// inclusive range `1..10` (also `1..=10`). Seeds keep their order; a repeat is an error.
+pub fn parse_seeds(s: &str) -> Result<Vec<u64>, String> {
+    let seed = |t: &str| {
+        t.trim().parse::<u64>().map_err(|_| {
+            format!(
+                "'{}' is not a seed (expected e.g. 3, 1,2,5 or 1..10)",
+                t.trim()
+            )
+        })
+    };
+    let mut out: Vec<u64> = Vec::new();
+    for item in s.split(',') {
+        match item.split_once("..") {
+            Some((a, b)) => {
+                let (a, b) = (seed(a)?, seed(b.trim_start_matches('='))?);
+                if b < a {
+                    return Err(format!("empty range {a}..{b}"));
+                }
+                if b - a >= MAX_SEEDS || out.len() as u64 + (b - a) >= MAX_SEEDS {
+                    return Err(format!("'{s}' names more than {MAX_SEEDS} seeds"));
+                }
+                out.extend(a..=b);
+            }
+            None => out.push(seed(item)?),
+        }
+    }
+    let mut sorted = out.clone();
+    sorted.sort_unstable();
+    if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+        return Err(format!("seed {} appears twice in '{s}'", w[0]));
+    }
+    Ok(out)
+}
+
+/// The robot of the subcommands that take a URDF directly (`model`, `generate`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct RobotArgs {
+    /// Robot description (URDF: serial chain of revolute joints, 4..=12).
+    #[arg(long)]
+    pub urdf: PathBuf,
+    /// End-effector link (default: the only leaf link).
+    #[arg(long)]
+    pub ee: Option<String>,
+}
+
+impl RobotArgs {
+    /// Reads the chain.
+    pub fn load(&self) -> Result<Chain, CliError> {
+        urdf::load(&self.urdf, self.ee.as_deref())
+    }
+}
+
+/// The flags of every subcommand that plans: they override the task file's `[planner]`.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct PlanArgs {
+    /// Seed of the random stream (overrides `[planner] seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Refine until f ≤ this (overrides `[planner] refine_tolerance`).
+    #[arg(long)]
+    pub refine_tolerance: Option<f64>,
+}
+
+impl PlanArgs {
+    /// The overrides these flags make.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            seed: self.seed,
+            refine_tolerance: self.refine_tolerance,
+        }
+    }
+}
+
+/// η from `--eta` as pairs, every problem named.
+pub fn parse_eta<const K: usize>(eta: &[f64]) -> Result<[[f64; 2]; K], CliError> {
+    eta_pairs::<K>(eta).map_err(|_| {
+        CliError::input(format!(
+            "--eta has {} values; this robot needs 2K = {} (a1,b1,...,a{K},b{K})",
+            eta.len(),
+            2 * K
+        ))
+    })
+}
+
+/// The error for an η the core rejects, naming `--eta`.
+pub fn eta_error(e: CoreError) -> CliError {
+    match e {
+        CoreError::NotFinite(Param::Eta(i)) => {
+            CliError::input(format!("--eta component {i} is not a finite number"))
+        }
+        CoreError::EtaZero => CliError::input("--eta is all zeros: no motion is defined"),
+        CoreError::EtaTooLarge => CliError::input(
+            "--eta is so large that g of eq. 14 overflows; only its direction matters: scale it down",
+        ),
+        other => CliError::input(format!("--eta: {other}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn seed_lists_take_single_seeds_lists_and_ranges() {
+        assert_eq!(parse_seeds("3"), Ok(vec![3]));
+        assert_eq!(parse_seeds("1,2,5"), Ok(vec![1, 2, 5]));
+        assert_eq!(parse_seeds("1..10"), Ok((1..=10).collect()));
+        assert_eq!(parse_seeds("1..=3,7"), Ok(vec![1, 2, 3, 7]));
+        assert!(parse_seeds("5..1").unwrap_err().contains("empty range"));
+        assert!(
+            parse_seeds("1,x")
+                .unwrap_err()
+                .contains("'x' is not a seed")
+        );
+        assert!(parse_seeds("1..3,2").unwrap_err().contains("twice"));
+        assert!(parse_seeds("0..2000000").unwrap_err().contains("more than"));
+    }
+}

@@ -1,0 +1,241 @@
+//! What `plan` and `rollout` write: the trajectory, the summary, the task bundle and the
+//! figures of one η.
+//!
+//! Owns the files of an output directory: `trajectory.csv` (every sample, s / rad /
+//! rad/s, through [`CsvSink`]), `summary.json` ([`Summary`], read back by `check`), the
+//! self-contained bundle `task.toml` + `robot.urdf` ([`write_bundle`]) and the figures
+//! ([`write_figures`]). [`write_rollout`] re-runs η through the core with the truth model
+//! and the trajectory digest attached, so every file comes from one pass over the samples.
+
+use crate::error::{CliError, Context};
+use crate::output::{CsvSink, OutDir};
+use crate::plots::{self, PlotData};
+use crate::taskfile::{self, LoadedTask};
+use reactionless::{
+    IDENTITY_WXYZ, Outcome, Pose, Rollout, Sample, Sink, Task, TrajectoryDigest, TruthModel,
+};
+use serde::{Deserialize, Serialize};
+
+/// Truth-model midpoint sub-steps per integration step.
+pub const TRUTH_SUBSTEPS: u32 = 10;
+
+/// `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Summary {
+    /// η as given.
+    pub eta: Vec<f64>,
+    /// q_S (rad).
+    pub q_final: Vec<f64>,
+    /// Planner-model end pose (m, unit quaternion).
+    pub end_pose: PoseJson,
+    /// f = ‖e‖ against the task target.
+    pub f: f64,
+    /// ‖p_des − p‖ (m).
+    pub position_error_m: f64,
+    /// Angle of R_des Rᵀ (deg).
+    pub orientation_error_deg: f64,
+    /// Φ of eq. 23 (rad).
+    pub phi: f64,
+    /// Joint minima over the motion (rad).
+    pub joint_min: Vec<f64>,
+    /// Joint maxima over the motion (rad).
+    pub joint_max: Vec<f64>,
+    /// Largest |q̇| (rad/s).
+    pub max_abs_qdot: f64,
+    /// g of eq. 14.
+    pub g: f64,
+    /// Largest base rotation over the motion, truth model (deg).
+    pub base_disturbance_deg: f64,
+    /// End pose with the truth-model base attitude (m, unit quaternion).
+    pub truth_end_pose: PoseJson,
+    /// f of the truth-model end pose against the target.
+    pub truth_f: f64,
+    /// Truth-model sub-steps per integration step.
+    pub truth_substeps: u32,
+    /// Integration steps S.
+    pub steps: u32,
+    /// dt (s).
+    pub dt_s: f64,
+    /// t_f (s).
+    pub tf_s: f64,
+}
+
+/// A pose in JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseJson {
+    /// Position (m).
+    pub position: [f64; 3],
+    /// Unit quaternion `[w, x, y, z]`.
+    pub quat_wxyz: [f64; 4],
+}
+
+impl From<&Pose> for PoseJson {
+    fn from(p: &Pose) -> Self {
+        Self {
+            position: p.position,
+            quat_wxyz: p.quat_wxyz,
+        }
+    }
+}
+
+/// What one written rollout produced.
+pub struct RolloutRun<const N: usize> {
+    /// The core's outcome.
+    pub outcome: Outcome<N>,
+    /// The truth model's findings.
+    pub truth: TruthReport,
+    /// FNV-1a-64 digest of every sample's bits (see `reactionless::digest`).
+    pub digest: TrajectoryDigest,
+    /// Samples (for plots), when asked for.
+    pub trace: Option<Trace>,
+}
+
+/// The samples of a rollout, kept for plots.
+#[derive(Default)]
+pub struct Trace {
+    /// Times (s).
+    pub t: Vec<f64>,
+    /// Joint positions (rad).
+    pub q: Vec<Vec<f64>>,
+    /// Joint rates (rad/s).
+    pub qd: Vec<Vec<f64>>,
+    /// Planner-model end-effector positions (m).
+    pub ee: Vec<[f64; 3]>,
+    /// Truth-model base rotation angle (deg).
+    pub base_angle_deg: Vec<f64>,
+}
+
+/// What the truth model found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruthReport {
+    /// Largest base rotation (deg).
+    pub base_disturbance_deg: f64,
+    /// End pose with the integrated base attitude.
+    pub end_pose: Pose,
+    /// f of that pose against the target.
+    pub f: f64,
+}
+
+/// Rolls `eta` out with the truth model and the digest; writes `trajectory.csv` into `dir`
+/// if given, and keeps the samples if `keep` is set.
+pub fn write_rollout<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    dir: Option<&OutDir>,
+    keep: bool,
+) -> Result<RolloutRun<N>, CliError> {
+    // η first (a bad one is the caller's input), then the rollout (a failure is a result).
+    Rollout::new(task, eta).map_err(crate::args::eta_error)?;
+    let mut csv = match dir {
+        Some(d) => Some(CsvSink::create(&d.path("trajectory.csv"), N)?),
+        None => None,
+    };
+    let mut truth = TruthModel::new(task, TRUTH_SUBSTEPS);
+    let mut digest = TrajectoryDigest::new();
+    let mut trace = keep.then(Trace::default);
+    let mut sink = |s: &Sample<N>| {
+        if let Some(c) = csv.as_mut() {
+            c.push(s);
+        }
+        truth.sample(s);
+        digest.sample(s);
+        if let Some(tr) = trace.as_mut() {
+            tr.t.push(s.t);
+            tr.q.push(s.q.to_vec());
+            tr.qd.push(s.qd.to_vec());
+            tr.ee.push(task.end_pose(&s.q, IDENTITY_WXYZ).position);
+            tr.base_angle_deg.push(truth.angle().to_degrees());
+        }
+    };
+    let outcome = task
+        .rollout(eta, &mut sink)
+        .or_failed(|| "rollout failed")?;
+    if let Some(c) = csv {
+        c.finish()?;
+    }
+    if let Some(e) = truth.error() {
+        return Err(CliError::failed(format!("truth model failed: {e}")));
+    }
+    let end = truth
+        .end_pose()
+        .ok_or_else(|| CliError::internal("truth model saw no samples"))?;
+    Ok(RolloutRun {
+        outcome,
+        truth: TruthReport {
+            base_disturbance_deg: truth.max_angle().to_degrees(),
+            f: end.error_to(task.target()).norm(),
+            end_pose: end,
+        },
+        digest,
+        trace,
+    })
+}
+
+/// Writes the self-contained task bundle (`task.toml`, `robot.urdf`) into `dir`.
+pub fn write_bundle(
+    lt: &LoadedTask,
+    dir: &OutDir,
+    seed: Option<u64>,
+    refine: Option<f64>,
+) -> Result<(), CliError> {
+    let (task, urdf) = lt.bundle(seed, refine)?;
+    dir.write(taskfile::BUNDLE_TASK, task.as_bytes())?;
+    dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
+}
+
+/// Writes the figures of a rollout (and a plan's convergence) into `dir`.
+pub fn write_figures<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    trace: Trace,
+    history: Option<Vec<f64>>,
+    dir: &OutDir,
+) -> Result<Vec<String>, CliError> {
+    let robot = task.robot();
+    let data = PlotData {
+        joint_names: lt.chain.joint_names.clone(),
+        t: trace.t,
+        q: trace.q,
+        qd: trace.qd,
+        lower: robot.lower().to_vec(),
+        upper: robot.upper().to_vec(),
+        qd_limit: lt.chain.joints.iter().map(|j| j.velocity).collect(),
+        ee: trace.ee,
+        target: task.target().position,
+        base_angle_deg: trace.base_angle_deg,
+        best_f_history: history,
+    };
+    plots::write_plots(&dir.path(""), &data)
+}
+
+/// `summary.json` of a finished rollout.
+pub fn summary<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    o: &Outcome<N>,
+    truth: &TruthReport,
+) -> Summary {
+    let m = task.motion();
+    Summary {
+        eta: eta.iter().flatten().copied().collect(),
+        q_final: o.q_final.to_vec(),
+        end_pose: (&o.end_pose).into(),
+        f: o.f,
+        position_error_m: o.error.position_m(),
+        orientation_error_deg: o.error.orientation_deg(),
+        phi: o.phi,
+        joint_min: o.joint_min.to_vec(),
+        joint_max: o.joint_max.to_vec(),
+        max_abs_qdot: o.max_abs_qd,
+        g: o.g,
+        base_disturbance_deg: truth.base_disturbance_deg,
+        truth_end_pose: (&truth.end_pose).into(),
+        truth_f: truth.f,
+        truth_substeps: TRUTH_SUBSTEPS,
+        steps: m.steps(),
+        dt_s: m.dt(),
+        tf_s: m.tf(),
+    }
+}

@@ -1,0 +1,112 @@
+//! `host-sim replay`: re-run certification records and compare bit for bit.
+//!
+//! Each record is planned again with its task and settings and every output is compared
+//! in a fixed order ([`crate::records::first_difference`]); the first difference is named
+//! and the exit code is 1. The build that replays may differ (debug or release, another
+//! machine): the bits must not. Every record is replayed; the first failure decides the
+//! exit code.
+
+use crate::error::{CliError, Context};
+use crate::records::{Build, first_difference, outputs_of, read_record, sha256_hex};
+use crate::taskfile::{self, Overrides};
+use crate::with_dims;
+use std::path::{Path, PathBuf};
+
+/// Re-run records and compare bit for bit; exit 1 naming the first difference.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Record files.
+    #[arg(required = true)]
+    records: Vec<PathBuf>,
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        let mut failed: Vec<CliError> = Vec::new();
+        for r in &self.records {
+            if let Err(e) = replay(r) {
+                eprintln!("error: {e}");
+                failed.push(e);
+            }
+        }
+        match failed.first() {
+            None => Ok(()),
+            Some(e) => Err(CliError {
+                code: e.code,
+                message: format!(
+                    "{} of {} records did not replay identically",
+                    failed.len(),
+                    self.records.len()
+                ),
+            }),
+        }
+    }
+}
+
+/// Replays one record.
+pub fn replay(path: &Path) -> Result<(), CliError> {
+    let rec = read_record(path)?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let table: toml::Table =
+        toml::from_str(&rec.task_toml).or_input(|| format!("{}: task_toml", path.display()))?;
+    let urdf_rel = table
+        .get("robot")
+        .and_then(|r| r.get("urdf"))
+        .and_then(toml::Value::as_str)
+        .ok_or_else(|| {
+            CliError::input(format!("{}: task_toml has no [robot] urdf", path.display()))
+        })?;
+    let urdf_path = dir.join(urdf_rel);
+    let urdf_text = std::fs::read_to_string(&urdf_path)
+        .or_input(|| format!("{}: URDF {}", path.display(), urdf_path.display()))?;
+    let sha = sha256_hex(urdf_text.as_bytes());
+    if sha != rec.urdf_sha256 {
+        return Err(CliError::failed(format!(
+            "{}: mismatch in urdf_sha256 ({}): recorded {}, found {sha}",
+            path.display(),
+            urdf_path.display(),
+            rec.urdf_sha256
+        )));
+    }
+    let lt = taskfile::from_texts(
+        &urdf_path.with_file_name("record-task.toml"),
+        &rec.task_toml,
+        &urdf_text,
+    )?;
+    let overrides = Overrides {
+        seed: Some(rec.seed),
+        refine_tolerance: rec.refine_tolerance,
+    };
+    let now = with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
+    let build = Build::current();
+    if let Some(d) = first_difference(&rec.outputs, &now) {
+        return Err(CliError::failed(format!(
+            "{}: mismatch in {}: recorded {}, replayed {} (recorded by {} {} {}, replayed by {} {} {})",
+            path.display(),
+            d.what,
+            d.first,
+            d.second,
+            rec.build.git_revision,
+            rec.build.target,
+            rec.build.profile,
+            build.git_revision,
+            build.target,
+            build.profile
+        )));
+    }
+    eprintln!(
+        "replay: {} identical ({} iterations, {} rollouts, digest {}; {} build of {} on {})",
+        path.display(),
+        now.iterations,
+        now.rollouts,
+        now.trajectory_digest,
+        build.profile,
+        build.git_revision,
+        build.target
+    );
+    Ok(())
+}

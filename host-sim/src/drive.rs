@@ -1,0 +1,97 @@
+//! Driving the core's planner on the host: to the end, with a progress bar on a terminal.
+//!
+//! Owns [`plan`] and what a finished run hands back ([`Planned`]): the plan, the histories
+//! the observer collected for plots and `plan.json`, the wall time and the integration
+//! steps spent. Every subcommand that plans (`plan`, `record`, `replay`, `campaign`,
+//! `bench`, `target`) goes through here, so the planner is driven one way everywhere.
+
+use crate::error::{CliError, Context};
+use crate::taskfile::LoadedTask;
+use indicatif::{ProgressBar, ProgressStyle};
+use reactionless::{Event, Plan, Planner, PlannerConfig, Status};
+use std::io::IsTerminal;
+use std::time::Instant;
+
+/// Swarm capacity of the host planner. It does not change results (only the task's count
+/// of particles is ever used); the flight image uses 64.
+pub const HOST_CAPACITY: usize = 256;
+
+/// Integration steps per `step` call when host-sim drives the planner (results do not
+/// depend on it: the planner is bit-identical under any slicing).
+const SLICE: u32 = 3000;
+
+/// A finished planning run.
+#[derive(Debug, Clone)]
+pub struct Planned<const N: usize, const K: usize> {
+    /// The plan (why it stopped: [`Plan::stop`]).
+    pub plan: Plan<N, K>,
+    /// gbest's f after each completed generation, then the successful f.
+    pub history: Vec<f64>,
+    /// Refinement: the best f after each trial.
+    pub refine_history: Vec<f64>,
+    /// Wall time of planning (s).
+    pub seconds: f64,
+    /// Integration steps spent ([`Planner::spent`]).
+    pub steps: u64,
+}
+
+/// Plans `lt` with `config` to the end; shows a progress bar on a terminal if `progress`.
+///
+/// # Errors
+/// Bad input for an invalid task or settings; "failed" if no rollout could be evaluated.
+pub fn plan<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    config: PlannerConfig,
+    progress: bool,
+) -> Result<Planned<N, K>, CliError> {
+    let task = lt.task::<N, K>()?;
+    let mut planner: Box<Planner<N, K, HOST_CAPACITY>> =
+        Box::new(Planner::new(task, config).or_input(|| "planner")?);
+    let bar = if progress && std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(u64::from(config.max_iterations));
+        b.set_style(
+            ProgressStyle::with_template("{spinner} {elapsed} [{bar:30}] gen {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut history = Vec::new();
+    let mut refine_history = Vec::new();
+    let mut observer = |e: &Event| match e {
+        Event::Generation {
+            iteration,
+            best,
+            rollouts,
+        } => {
+            history.push(best.f);
+            bar.set_position(u64::from(*iteration));
+            bar.set_message(format!("best f {:.3e}, {rollouts} rollouts", best.f));
+        }
+        Event::SwarmConverged { f, .. } => {
+            history.push(*f);
+            bar.set_message(format!("C-PSO converged, f {f:.3e}; refining"));
+        }
+        Event::RefineTrial { f, .. } => refine_history.push(*f),
+        Event::Stagnation { .. } => {}
+    };
+    let start = Instant::now();
+    let plan = loop {
+        match planner
+            .step(SLICE, &mut observer)
+            .or_failed(|| "planning failed")?
+        {
+            Status::Running(_) => {}
+            Status::Finished(plan) => break plan,
+        }
+    };
+    bar.finish_and_clear();
+    Ok(Planned {
+        plan,
+        history,
+        refine_history,
+        seconds: start.elapsed().as_secs_f64(),
+        steps: planner.spent(),
+    })
+}

@@ -1,0 +1,106 @@
+//! Plots of a trajectory and a plan (plotters; PNG and SVG): the paper's Figs. 3–6 and more.
+//!
+//! Owns [`PlotData`] (everything a figure needs, in SI units as computed) and
+//! [`write_plots`]. Angles are shown in degrees on the axes (a report), labelled with units.
+//!
+//! Text needs no system fonts: plotters draws it with `ab_glyph` from a font embedded in the
+//! binary (a subset of DejaVu Sans, `host-sim/assets/`), registered on first use. The SVGs
+//! carry their text as `<text>` elements (family `sans-serif`); the embedded font only sizes it.
+//!
+//! Every figure is checked and laid out before any file is written, so bad input writes
+//! nothing. Non-finite samples are left out (the line breaks there); empty or mismatched
+//! vectors are an error.
+//!
+//! Two steps: [`figures`] turns the data into backend-independent figure specifications
+//! (panels, lines, limits, markers, ranges, ticks); [`draw`] renders a specification with
+//! plotters, once for PNG and once for SVG.
+
+mod draw;
+mod figures;
+
+use crate::error::CliError;
+use draw::draw_figure;
+use figures::figures;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Everything the figures need, as computed by host-sim (SI units, radians).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlotData {
+    /// Joint names (URDF), one per joint.
+    pub joint_names: Vec<String>,
+    /// Sample times (s), `t[0] = 0`, last = t_f.
+    pub t: Vec<f64>,
+    /// Joint positions per sample (rad): `q[sample][joint]`.
+    pub q: Vec<Vec<f64>>,
+    /// Joint rates per sample (rad/s): `qd[sample][joint]`.
+    pub qd: Vec<Vec<f64>>,
+    /// Lower joint limits (rad).
+    pub lower: Vec<f64>,
+    /// Upper joint limits (rad).
+    pub upper: Vec<f64>,
+    /// Joint rate limit per joint (rad/s).
+    pub qd_limit: Vec<f64>,
+    /// End-effector position per sample, planner model (m, inertial frame).
+    pub ee: Vec<[f64; 3]>,
+    /// Target position (m, inertial frame).
+    pub target: [f64; 3],
+    /// Base rotation angle per sample, truth model (deg).
+    pub base_angle_deg: Vec<f64>,
+    /// gbest's f after each C-PSO generation (only for plans).
+    pub best_f_history: Option<Vec<f64>>,
+}
+
+/// Writes the figures into `dir` as PNG and SVG; returns the file names written.
+///
+/// Figures: `joints`, `joint_rates`, `ee_path`, `base_attitude`, and `convergence` when
+/// [`PlotData::best_f_history`] is present; each as `NAME.png` and `NAME.svg`. `dir` must
+/// exist. Bad input (empty or mismatched vectors, nothing finite to plot) and write
+/// failures are [`CliError::input`] errors; input is checked before any file is written.
+pub fn write_plots(dir: &Path, data: &PlotData) -> Result<Vec<String>, CliError> {
+    let err = |e: String| CliError::input(format!("writing plots: {e}"));
+    ensure_font().map_err(err)?;
+    let figures = figures(data).map_err(err)?;
+    let mut written = Vec::with_capacity(2 * figures.len());
+    for fig in &figures {
+        let png = format!("{}.png", fig.name);
+        {
+            let path = dir.join(&png);
+            let root = BitMapBackend::new(&path, fig.size).into_drawing_area();
+            draw_figure(&root, fig)
+                .and_then(|()| root.present().map_err(|e| e.to_string()))
+                .map_err(|e| err(format!("{png}: {e}")))?;
+        }
+        written.push(png);
+        let svg = format!("{}.svg", fig.name);
+        {
+            let path = dir.join(&svg);
+            let root = SVGBackend::new(&path, fig.size).into_drawing_area();
+            draw_figure(&root, fig)
+                .and_then(|()| root.present().map_err(|e| e.to_string()))
+                .map_err(|e| err(format!("{svg}: {e}")))?;
+        }
+        written.push(svg);
+    }
+    Ok(written)
+}
+
+// ---------------------------------------------------------------------------------------
+// Font
+
+/// A subset of DejaVu Sans (Latin-1, Greek, a few symbols); licence next to it.
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans-subset.ttf");
+
+/// Registers [`FONT`] with plotters once, under every generic family name plotters uses.
+fn ensure_font() -> Result<(), String> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        for family in ["sans-serif", "serif", "monospace"] {
+            plotters::style::register_font(family, FontStyle::Normal, FONT)
+                .map_err(|_| "the embedded font does not parse".to_string())?;
+        }
+        Ok(())
+    })
+    .clone()
+}

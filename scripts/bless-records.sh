@@ -18,8 +18,8 @@ while read -r name task seed refine; do
   "$H" "${args[@]}"
 done <<'LIST'
 paper             spec/tasks/paper.toml              1  1e-6
-chaser7-task002   tests/tasks/chaser7/task_002.toml  5  -
-chaser7-task003   tests/tasks/chaser7/task_003.toml  5  1e-6
-arm6-task001      tests/tasks/arm6/task_001.toml     1  1e-6
-arm9-task002      tests/tasks/arm9/task_002.toml     2  -
+chaser7-task002   tests/records/tasks/chaser7/task_002.toml  5  -
+chaser7-task003   tests/records/tasks/chaser7/task_003.toml  5  1e-6
+arm6-task001      tests/records/tasks/arm6/task_001.toml     1  1e-6
+arm9-task002      tests/records/tasks/arm9/task_002.toml     2  -
 LIST

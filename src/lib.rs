@@ -88,4 +88,4 @@ pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
 pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
-pub use truth::TruthModel;
+pub use truth::{TruthModel, TruthState};

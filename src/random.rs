@@ -1,16 +1,33 @@
-//! The planner's only source of randomness: one xoshiro256++ stream seeded from the task's
-//! 64-bit seed (spec §7).
+//! The only source of randomness: xoshiro256++ streams seeded from a 64-bit seed, one
+//! stream per purpose (spec §7).
 //!
-//! Owns [`Stream`]. `seed_from_u64` expands the seed with SplitMix64 (rand_xoshiro's
-//! definition); a uniform `f64` in `[0, 1)` is the top 53 bits of the next `u64` times
-//! `2⁻⁵³`. A known-answer test pins the first values, so a dependency bump cannot silently
-//! change every plan.
+//! Owns [`Stream`] and [`Purpose`]. `seed_from_u64` expands the seed with SplitMix64
+//! (rand_xoshiro's definition); a uniform `f64` in `[0, 1)` is the top 53 bits of the next
+//! `u64` times `2⁻⁵³`. A known-answer test pins the first values, so a dependency bump
+//! cannot silently change every plan.
+//!
+//! Streams per purpose, for the same seed:
+//! - [`Purpose::Planner`]: the seeded generator itself ([`Stream::new`]); the planner's
+//!   draws (see [`crate::swarm`] and the strategies for their order).
+//! - [`Purpose::Generator`]: the same generator after one `long_jump` (2¹⁹² draws ahead),
+//!   for making test targets (`host-sim generate`). It can never meet the planner's draws
+//!   of that seed, so planning a generated task with the generator's seed does not start
+//!   from the η that made the target.
 
 use rand_core::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// `2⁻⁵³`.
 const INV_2_53: f64 = 1.0 / 9_007_199_254_740_992.0;
+
+/// What a stream is for: each purpose draws from its own stream of the same seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Purpose {
+    /// The planner (spec §7): [`Stream::new`].
+    Planner,
+    /// Making reachable test targets (`host-sim generate`): one `long_jump` ahead.
+    Generator,
+}
 
 /// A seeded stream of uniform numbers.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -28,11 +45,25 @@ impl Stream {
         draws: 0,
     };
 
-    /// The stream of `seed`.
+    /// The planner's stream of `seed` ([`Purpose::Planner`]).
     #[must_use]
     pub fn new(seed: u64) -> Self {
         Self {
             rng: Some(Xoshiro256PlusPlus::seed_from_u64(seed)),
+            draws: 0,
+        }
+    }
+
+    /// The stream of `seed` for `purpose` (see the module documentation).
+    #[must_use]
+    pub fn for_purpose(seed: u64, purpose: Purpose) -> Self {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        match purpose {
+            Purpose::Planner => {}
+            Purpose::Generator => rng.long_jump(),
+        }
+        Self {
+            rng: Some(rng),
             draws: 0,
         }
     }
@@ -87,6 +118,23 @@ mod tests {
             u,
             [0.8116121588818848, 0.7471047161582187, 0.10015090353378375]
         );
+    }
+
+    /// The generator's stream is not the planner's: planning a generated task with the
+    /// same seed cannot start at the generating η. Its first value is pinned as well.
+    #[test]
+    fn purposes_have_their_own_streams() {
+        let mut planner = Stream::for_purpose(1, Purpose::Planner);
+        assert_eq!(planner, Stream::new(1));
+        let mut generator = Stream::for_purpose(1, Purpose::Generator);
+        let (p, g): (std::vec::Vec<u64>, std::vec::Vec<u64>) = (
+            (0..64).map(|_| planner.next_u64()).collect(),
+            (0..64).map(|_| generator.next_u64()).collect(),
+        );
+        assert!(p.iter().all(|v| !g.contains(v)));
+        // Pinned (this implementation, the commit that added the purposes): a change here
+        // changes every generated task.
+        assert_eq!(g[..2], [14330722100524715756, 6173755517784297026]);
     }
 
     #[test]

@@ -16,7 +16,7 @@ fn host_sim() -> Command {
 
 /// A fast task: the 6-DOF test arm, converges in a few iterations.
 fn arm6() -> PathBuf {
-    root().join("tests/tasks/arm6/task_002.toml")
+    root().join("tests/records/tasks/arm6/task_002.toml")
 }
 
 fn run(args: &[&str], paths: &[&Path]) -> (Option<i32>, String, String) {
@@ -141,7 +141,7 @@ fn a_changed_record_or_robot_fails_replay_naming_the_quantity() {
     .unwrap();
     let task = std::fs::read_to_string(arm6())
         .unwrap()
-        .replace("../../robots/arm6.urdf", "arm6.urdf");
+        .replace("../../../robots/arm6.urdf", "arm6.urdf");
     std::fs::write(tmp.path().join("task.toml"), task).unwrap();
     let rec = tmp.path().join("rec.json");
     let (code, _, err) = run(
@@ -365,7 +365,7 @@ fn campaign_is_the_same_for_any_number_of_jobs() {
         let mut c = host_sim();
         c.arg("campaign")
             .arg(arm6())
-            .arg(root().join("tests/tasks/arm6/task_001.toml"));
+            .arg(root().join("tests/records/tasks/arm6/task_001.toml"));
         c.args(["--seeds", "1..3", "--jobs", jobs, "--out"])
             .arg(out);
         c.output().unwrap()
@@ -403,7 +403,7 @@ fn campaign_quotes_a_task_path_with_a_comma() {
     let urdf = root().join("tests/robots/arm6.urdf");
     let text = std::fs::read_to_string(arm6())
         .unwrap()
-        .replace("../../robots/arm6.urdf", &urdf.display().to_string());
+        .replace("../../../robots/arm6.urdf", &urdf.display().to_string());
     let task = dir.join("task.toml");
     std::fs::write(&task, text).unwrap();
     let out = tmp.path().join("out");

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generates the test robots arm6.urdf and arm9.urdf (run from the repository root).
+"""Generates the test robots arm6.urdf, arm9.urdf and arm12.urdf (run from the repository root).
 
 Deterministic (fixed seeds, values rounded to 6 decimals). The robots exercise what the
 reference chaser does not: oblique joint axes, non-zero joint-origin rpy, full inertia
@@ -85,6 +85,6 @@ def robot(name, n, seed, base_mass):
 
 
 if __name__ == "__main__":
-    for name, n, seed, mass in [("arm6", 6, 6, 650.0), ("arm9", 9, 9, 1200.0)]:
+    for name, n, seed, mass in [("arm6", 6, 6, 650.0), ("arm9", 9, 9, 1200.0), ("arm12", 12, 12, 1500.0)]:
         with open(f"tests/robots/{name}.urdf", "w") as fh:
             fh.write(robot(name, n, seed, mass))

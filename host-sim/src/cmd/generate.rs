@@ -4,8 +4,10 @@
 //! start and take the pose reached — with the true base drift (truth model, 10 sub-steps),
 //! so the target is exactly reachable by that η. A candidate is kept only if its rollout
 //! succeeds, respects the joint limits (Φ = 0) and moves the end effector by at least
-//! `--min-motion-m`. η is drawn from the seeded xoshiro256++ stream, uniform in
-//! `[−B, B]^(2K)`, so the same arguments always write the same tasks.
+//! `--min-motion-m`. η is drawn uniform in `[−B, B]^(2K)` from the generator's own stream
+//! of the seed (`reactionless::random::Purpose::Generator`, not the planner's), so the same
+//! arguments always write the same tasks and a plan with that seed does not start from the
+//! generating η.
 
 use crate::args::{List, RobotArgs, parse_list};
 use crate::artifacts::TRUTH_SUBSTEPS;
@@ -14,7 +16,7 @@ use crate::output::OutDir;
 use crate::records::relative_text;
 use crate::urdf::Chain;
 use crate::with_dims;
-use reactionless::random::Stream;
+use reactionless::random::{Purpose, Stream};
 use reactionless::{IDENTITY_WXYZ, Motion, Pose, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -119,7 +121,7 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
         CliError::input(msg)
     })?;
     let start = probe.start_pose().position;
-    let mut stream = Stream::new(o.seed);
+    let mut stream = Stream::for_purpose(o.seed, Purpose::Generator);
     let mut found: Vec<(Vec<f64>, Pose, f64)> = Vec::new();
     let mut attempts = 0;
     while found.len() < o.count as usize && attempts < ATTEMPTS_PER_TASK * o.count {

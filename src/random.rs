@@ -134,7 +134,10 @@ mod tests {
         assert!(p.iter().all(|v| !g.contains(v)));
         // Pinned (this implementation, the commit that added the purposes): a change here
         // changes every generated task.
-        assert_eq!(g.get(..2), Some(&[14330722100524715756, 6173755517784297026][..]));
+        assert_eq!(
+            g.get(..2),
+            Some(&[14330722100524715756, 6173755517784297026][..])
+        );
     }
 
     #[test]

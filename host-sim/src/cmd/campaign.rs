@@ -27,6 +27,8 @@ use std::path::{Path, PathBuf};
 pub struct Run {
     /// Task file as given.
     pub task: String,
+    /// The robot's name (URDF).
+    pub robot: String,
     /// Seed.
     pub seed: u64,
     /// `converged` (f ≤ σ_e with Φ = 0) or `not_converged`.
@@ -45,6 +47,8 @@ pub struct Run {
     pub orientation_error_deg: f64,
     /// Base disturbance, truth model (deg).
     pub base_disturbance_deg: f64,
+    /// f of the truth-model end pose (the base drift included) against the target.
+    pub truth_f: f64,
     /// Wall time of planning (s).
     pub wall_s: f64,
 }
@@ -63,6 +67,7 @@ fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run
     let truth = write_rollout(&task, &p.eta, None, false)?.truth;
     Ok(Run {
         task: lt.path.display().to_string(),
+        robot: lt.chain.name.clone(),
         seed,
         status: if p.converged() {
             "converged"
@@ -76,6 +81,7 @@ fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run
         position_error_m: p.outcome.error.position_m(),
         orientation_error_deg: p.outcome.error.orientation_deg(),
         base_disturbance_deg: truth.base_disturbance_deg,
+        truth_f: truth.f,
         wall_s: done.seconds,
     })
 }
@@ -93,11 +99,12 @@ fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
         100.0 * ok as f64 / runs.len().max(1) as f64
     );
     let _ = writeln!(out, "| quantity | median | p90 | max |\n|---|---|---|---|");
-    let cols: [Column; 5] = [
+    let cols: [Column; 6] = [
         ("iterations", |r| f64::from(r.iterations), false),
         ("rollouts", |r| f64::from(r.rollouts), false),
         ("f", |r| r.f, true),
         ("base disturbance (deg)", |r| r.base_disturbance_deg, true),
+        ("truth f", |r| r.truth_f, true),
         ("wall time (s)", |r| r.wall_s, false),
     ];
     for (name, get, sci) in cols {
@@ -119,15 +126,51 @@ fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
     }
 }
 
-/// The Markdown summary.
+/// One row of the overview: success and the cost of success for a group of runs.
+fn overview_row(out: &mut String, label: &str, runs: &[&Run]) {
+    let ok: Vec<&&Run> = runs.iter().filter(|r| r.converged()).collect();
+    let rollouts: Vec<f64> = ok.iter().map(|r| f64::from(r.rollouts)).collect();
+    let all_rollouts: Vec<f64> = runs.iter().map(|r| f64::from(r.rollouts)).collect();
+    let wall: Vec<f64> = runs.iter().map(|r| r.wall_s).collect();
+    let _ = writeln!(
+        out,
+        "| {label} | {} | {} ({:.1}%) | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} |",
+        runs.len(),
+        ok.len(),
+        100.0 * ok.len() as f64 / runs.len().max(1) as f64,
+        median(&rollouts),
+        percentile(&rollouts, 95.0),
+        max(&rollouts),
+        max(&all_rollouts),
+        median(&wall),
+        max(&wall),
+    );
+}
+
+/// The Markdown summary: an overview per robot (and all), then each task's statistics.
 pub fn summary(runs: &[Run], seeds: &[u64]) -> String {
     let mut out = format!(
-        "# Campaign summary\n\nSeeds {}..{} ({} per task), {} runs. Wall times depend on the machine and the number of jobs; everything else is deterministic.\n",
-        seeds.first().copied().unwrap_or(0),
-        seeds.last().copied().unwrap_or(0),
+        "# Campaign summary\n\nSeeds {} ({} per task), {} runs. Wall times depend on the machine and the number of jobs; everything else is deterministic.\n",
+        seed_text(seeds),
         seeds.len(),
         runs.len()
     );
+    let _ = writeln!(
+        out,
+        "\n## Overview\n\nRollouts to success over the converged runs (median, p95, max); the most rollouts any run spent; wall time of planning over all runs.\n\n| robot | runs | converged | rollouts median | p95 | max | most spent | wall median (s) | wall max (s) |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    let mut robots: Vec<&str> = runs.iter().map(|r| r.robot.as_str()).collect();
+    robots.sort_unstable();
+    robots.dedup();
+    for robot in &robots {
+        let rs: Vec<&Run> = runs.iter().filter(|r| r.robot == *robot).collect();
+        overview_row(&mut out, robot, &rs);
+    }
+    if robots.len() > 1 {
+        let all: Vec<&Run> = runs.iter().collect();
+        overview_row(&mut out, "all robots", &all);
+    }
+    let _ = writeln!(out, "\n## Per task");
     let mut tasks: Vec<&str> = runs.iter().map(|r| r.task.as_str()).collect();
     tasks.dedup();
     for t in &tasks {
@@ -139,6 +182,18 @@ pub fn summary(runs: &[Run], seeds: &[u64]) -> String {
         stats_rows(&mut out, "all tasks", &all);
     }
     out
+}
+
+/// `1..5` for a contiguous ascending list, else the list.
+fn seed_text(seeds: &[u64]) -> String {
+    match (seeds.first(), seeds.last()) {
+        (Some(a), Some(b)) if seeds.windows(2).all(|w| w[1] == w[0] + 1) => format!("{a}..{b}"),
+        _ => seeds
+            .iter()
+            .map(u64::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+    }
 }
 
 /// Monte Carlo over tasks and seeds in parallel: DIR/runs.csv and DIR/summary.md.

@@ -53,6 +53,8 @@ pub struct PlanJson {
     pub refine: Option<RefineJson>,
     /// End pose of the plan (planner model).
     pub end_pose: PoseJson,
+    /// f of the truth-model end pose (the base drift included) against the target.
+    pub truth_f: f64,
     /// Wall time of planning (s); not part of any record.
     pub wall_time_s: f64,
 }
@@ -165,6 +167,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
             f_history: done.refine_history,
         }),
         end_pose: (&p.outcome.end_pose).into(),
+        truth_f: truth.f,
         wall_time_s: done.seconds,
     };
     dir.write_json("plan.json", &json)?;

@@ -11,8 +11,8 @@ mod common;
 use common::*;
 use reactionless::random::Stream;
 use reactionless::{
-    Cost, Error, Event, Param, Plan, Planner, PlannerConfig, RefineStop, Sample, Setpoints, Status,
-    Stop, Swarm, Task, TruthModel,
+    Candidate, Cost, Cpso, Error, Evaluation, Event, Next, Optimizer, Param, Plan, Planner,
+    PlannerConfig, RefineStop, Sample, Setpoints, Status, Stop, Swarm, Task, TruthModel,
 };
 
 type RefPlanner = Planner<7, 4, 64>;
@@ -153,6 +153,176 @@ fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
         s.record(0, FEAS(1.0 / (k as f64 + 1.0)));
         assert!(!s.end_generation());
     }
+}
+
+/// The initial swarm: T particles at B·(2u − 1) per component, u drawn from the task's
+/// stream particle by particle (a₁, b₁, …, a_K, b_K), hence uniform in [−B, B]^{2K}, at
+/// rest, each its own pbest; nothing else is drawn.
+/// Verifies RL-PSO-001, RL-PSO-010.
+#[test]
+fn the_swarm_starts_uniform_in_the_eta_box_at_rest() {
+    // The reference settings through the planner: T = 40, B = 5, 2K = 8.
+    let p = RefPlanner::new(paper_task(), PlannerConfig::reference(4)).unwrap();
+    let s = p.swarm();
+    assert_eq!(s.count(), 40);
+    assert!(s.particle(40).is_none());
+    let mut u = Stream::new(4);
+    let mut components = Vec::new();
+    for j in 0..40 {
+        let part = s.particle(j).unwrap();
+        for x in part.position.iter().flatten() {
+            let want = 5.0 * (2.0 * u.uniform() - 1.0);
+            assert_eq!(x.to_bits(), want.to_bits(), "particle {j}");
+            components.push(*x);
+        }
+        assert_eq!(part.velocity, [[0.0; 2]; 4], "particle {j} starts at rest");
+        assert_eq!(part.best, part.position);
+    }
+    // Uniform over [−5, 5): each unit-wide bin holds its share of the 320 components.
+    assert!(components.iter().all(|x| (-5.0..5.0).contains(x)));
+    let mut bins = [0u32; 10];
+    for x in &components {
+        bins[((x + 5.0).floor() as usize).min(9)] += 1;
+    }
+    assert!(bins.iter().all(|&n| (12..=52).contains(&n)), "{bins:?}");
+    let mean = components.iter().sum::<f64>() / components.len() as f64;
+    assert!(mean.abs() < 0.6, "mean {mean}");
+    // Other T and B, directly on a swarm: exactly T·2K draws, each B·(2u − 1).
+    let mut cfg = PlannerConfig::reference(1);
+    cfg.particles = 5;
+    cfg.eta_bound = 0.25;
+    let mut stream = Stream::new(9);
+    let swarm: Swarm<2, 8> = Swarm::new(&cfg, &mut stream).unwrap();
+    assert_eq!(stream.draws(), 5 * 4);
+    let mut u = Stream::new(9);
+    for j in 0..5 {
+        let part = swarm.particle(j).unwrap();
+        for x in part.position.iter().flatten() {
+            assert_eq!(x.to_bits(), (0.25 * (2.0 * u.uniform() - 1.0)).to_bits());
+        }
+        assert_eq!(part.velocity, [[0.0; 2]; 2]);
+    }
+}
+
+/// Two swarm moves recomputed by hand from the same stream draws (r₁ then r₂ per
+/// component, particle by particle): ν ← ω(m)·ν + c₁r₁(pbest − η) + c₂r₂(gbest − η),
+/// η ← η + ν (eqs. 20–21), with ω(m) = ω_max − m(ω_max − ω_min)/m_max (eq. 22); and the
+/// spec §7 defaults.
+/// Verifies RL-PSO-002, RL-PSO-010.
+#[test]
+fn a_swarm_move_is_eqs_20_to_22() {
+    let reference = PlannerConfig::reference(1);
+    assert_eq!((reference.c1, reference.c2), (1.49618, 1.49618));
+    assert_eq!(reference.inertia_weight(0), 0.9);
+    assert!((reference.inertia_weight(200) - 0.4).abs() < 1e-15);
+    // c₁ ≠ c₂ so that swapping the cognitive and social terms would show.
+    let mut cfg = reference;
+    cfg.particles = 4;
+    cfg.max_iterations = 10;
+    cfg.c1 = 1.2;
+    cfg.c2 = 1.7;
+    let (w_max, w_min, m_max) = (0.9, 0.4, 10.0);
+    let mut stream = Stream::new(11);
+    let mut s: Swarm<2, 8> = Swarm::new(&cfg, &mut stream).unwrap();
+    // Generation 0: particle 2 is the best feasible point.
+    for (j, c) in [INFEAS(0.3, 1.0), INFEAS(0.2, 1.0), FEAS(0.7), FEAS(0.9)]
+        .into_iter()
+        .enumerate()
+    {
+        s.record(j, c);
+    }
+    assert!(!s.end_generation());
+    let later = [FEAS(0.1), INFEAS(0.5, 0.0), FEAS(0.8), FEAS(0.6)];
+    for m in 1..=2u32 {
+        let before: Vec<_> = (0..4).map(|j| *s.particle(j).unwrap()).collect();
+        let (g, _) = s.gbest();
+        let w = w_max - f64::from(m) * (w_max - w_min) / m_max;
+        let mut hand = stream.clone();
+        s.advance(m, &mut stream);
+        for (j, b) in before.iter().enumerate() {
+            let after = s.particle(j).unwrap();
+            let comps = b
+                .position
+                .iter()
+                .flatten()
+                .zip(b.velocity.iter().flatten())
+                .zip(b.best.iter().flatten())
+                .zip(g.iter().flatten());
+            let moved = after
+                .position
+                .iter()
+                .flatten()
+                .zip(after.velocity.iter().flatten());
+            for (c, ((((x, v), pb), gb), (x_new, v_new))) in comps.zip(moved).enumerate() {
+                let r1 = hand.uniform();
+                let r2 = hand.uniform();
+                let v_want = w * v + 1.2 * r1 * (pb - x) + 1.7 * r2 * (gb - x);
+                assert_eq!(*v_new, v_want, "move {m}, particle {j}, component {c}: ν");
+                assert_eq!(
+                    *x_new,
+                    x + v_want,
+                    "move {m}, particle {j}, component {c}: η"
+                );
+            }
+        }
+        assert_eq!(stream, hand, "move {m} draws exactly r₁, r₂ per component");
+        // New costs: pbest moves for particles 0 and 3 only, gbest becomes particle 0.
+        for (j, c) in later.into_iter().enumerate() {
+            s.record(j, c);
+        }
+        assert!(!s.end_generation());
+        assert_eq!(s.gbest_index(), 0);
+    }
+}
+
+/// With no feasible point anywhere (every joint limit within 1 mrad of the start), the
+/// exhausted plan is the least violating of all evaluated rollouts: the same η and
+/// outcome as the minimum of Φ (then f) over every C-PSO candidate rolled out to the end.
+/// Verifies RL-PSO-008, RL-PSO-009, RL-PLAN-004, RL-PLAN-005.
+#[test]
+fn exhausted_without_a_feasible_point_reports_the_least_violating() {
+    let mut d = reactionless::CHASER7;
+    for (j, q) in d.joints.iter_mut().zip(q0()) {
+        j.lower = q - 1e-3;
+        j.upper = q + 1e-3;
+    }
+    let robot = reactionless::Robot::new(&d).unwrap();
+    let task = Task::<7, 4>::new(robot, q0(), TARGET, *paper_task().motion()).unwrap();
+    let mut cfg = PlannerConfig::reference(6);
+    cfg.particles = 6;
+    cfg.max_iterations = 3;
+    let mut p = RefPlanner::new(task.clone(), cfg).unwrap();
+    let (s, _) = run(&mut p, u32::MAX);
+    let plan = *plan_of(&s);
+    // The same C-PSO driven by hand, every candidate rolled out to the end (no cap).
+    let mut stream = Stream::new(6);
+    let mut cpso: Box<Cpso<4, 64>> = Box::new(Cpso::IDLE);
+    cpso.reset(&cfg, &mut stream).unwrap();
+    let mut evaluated = Vec::new();
+    loop {
+        let c: Candidate<4> = Optimizer::<7, 4>::candidate(&*cpso);
+        let o = task.rollout(&c.eta, &mut ()).unwrap();
+        evaluated.push((c.eta, o));
+        if let Next::Done(stop) = cpso.absorb(&Evaluation::Finished(o), &mut stream, &mut ()) {
+            assert_eq!(stop, Stop::Exhausted);
+            break;
+        }
+    }
+    assert_eq!(evaluated.len(), 6 * 4);
+    assert!(
+        evaluated.iter().all(|(_, o)| o.phi > 0.0),
+        "nothing is feasible"
+    );
+    let (eta, least) = evaluated
+        .iter()
+        .min_by(|a, b| a.1.phi.total_cmp(&b.1.phi).then(a.1.f.total_cmp(&b.1.f)))
+        .unwrap();
+    assert_eq!(plan.stop, Stop::Exhausted);
+    assert!(!plan.converged());
+    assert_eq!(plan.rollouts, 6 * 4);
+    assert_eq!(plan.eta, *eta);
+    assert_eq!(plan.outcome, *least);
+    assert_eq!(task.rollout(&plan.eta, &mut ()).unwrap(), plan.outcome);
 }
 
 #[test]

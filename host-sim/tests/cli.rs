@@ -323,6 +323,28 @@ fn bad_task_files_are_named_and_write_nothing() {
     rejects(id, "0,0,0,0,0,0,0,0", &["all zeros"]);
 }
 
+/// A `[check] max_base_disturbance_deg` that is not a finite number > 0 (zero, negative,
+/// NaN, ∞) is named with its value, exit code 2, and nothing is written.
+/// Verifies RL-SIM-OUT-001, RL-ROB-015.
+#[test]
+fn a_bad_disturbance_threshold_is_named_and_writes_nothing() {
+    for (value, shown) in [
+        ("0.0", "= 0 "),
+        ("-0.01", "= -0.01 "),
+        ("nan", "= NaN "),
+        ("inf", "= inf "),
+    ] {
+        rejects(
+            |s| format!("{s}\n[check]\nmax_base_disturbance_deg = {value}\n"),
+            ETA_HAT,
+            &[
+                &format!("[check] max_base_disturbance_deg {shown}"),
+                "must be a finite number > 0",
+            ],
+        );
+    }
+}
+
 #[test]
 fn a_foreign_output_directory_is_never_replaced() {
     let tmp = tempfile::tempdir().unwrap();

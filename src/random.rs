@@ -69,6 +69,7 @@ mod tests {
     /// implementation of both published algorithms (Python, in the commit that added this
     /// test). If this fails, the random stream changed and every plan and golden record
     /// with it.
+    /// Verifies RL-PSO-010.
     #[test]
     fn first_values_of_seed_1_are_pinned() {
         let mut s = Stream::new(1);
@@ -89,6 +90,8 @@ mod tests {
         );
     }
 
+    /// Uniforms lie in [0, 1), indices in 0..n, and every draw is counted.
+    /// Verifies RL-PSO-010.
     #[test]
     fn uniform_is_in_unit_interval_and_index_in_range() {
         let mut s = Stream::new(7);

@@ -88,6 +88,9 @@ fn check_momentum<const N: usize>(d: &RobotDesc<N>, q: &[f64; N]) -> f64 {
     worst
 }
 
+/// r_g, H~bm and H~b equal central differences of an independent kinematics (CHASER7,
+/// random 6-/9-joint robots).
+/// Verifies RL-MODEL-002, RL-MOM-001.
 #[test]
 fn momentum_matrices_match_finite_differences_on_random_configurations() {
     let mut rng = rng(11);
@@ -108,6 +111,9 @@ fn momentum_matrices_match_finite_differences_on_random_configurations() {
     assert!(worst <= 1e-6, "worst relative error {worst:e}");
 }
 
+/// Link CoMs and the end pose equal an independent URDF chain within 1e-12 (random 8-joint
+/// robots).
+/// Verifies RL-MODEL-001.
 #[test]
 fn forward_kinematics_matches_naive_urdf_chain() {
     let mut rng = rng(5);
@@ -162,6 +168,9 @@ fn check_jacobian<const N: usize, const K: usize>(d: &RobotDesc<N>, q: &[f64; N]
     worst
 }
 
+/// J_G along null-space directions equals central differences of the CoM-conserving pose
+/// within 1e-8.
+/// Verifies RL-MODEL-002, RL-MOM-004.
 #[test]
 fn generalized_jacobian_matches_finite_differences_along_null_space() {
     let mut rng = rng(7);
@@ -176,6 +185,8 @@ fn generalized_jacobian_matches_finite_differences_along_null_space() {
     assert!(worst < 1e-8, "worst relative error {worst:e}");
 }
 
+/// For arbitrary q̇ the base rate w₀ conserves momentum: ‖H~b w₀ + H~bm q̇‖ < 1e-12·‖H~b‖.
+/// Verifies RL-MOM-002.
 #[test]
 fn jacobian_angular_rows_predict_base_rotation_for_general_motion() {
     // Off the null space the base turns: w_E = k + w0 must hold with w0 from H~b, H~bm.
@@ -216,6 +227,9 @@ fn check_basis<const N: usize, const K: usize>(hbm: &[Vector3<f64>; N], b: &Basi
     }
 }
 
+/// The initial basis is orthonormal and in the null space of H~bm (CHASER7, random 9-joint
+/// robots).
+/// Verifies RL-RNS-001.
 #[test]
 fn basis_is_orthonormal_null_space_on_random_configurations() {
     let mut rng = rng(3);
@@ -235,6 +249,7 @@ fn basis_is_orthonormal_null_space_on_random_configurations() {
 /// Along the η̂ rollout: the basis stays an orthonormal null-space basis, moves
 /// continuously (consecutive bases differ by O(dt), no sign flips), and every q̇ is
 /// reactionless (H~bm q̇ = 0).
+/// Verifies RL-RNS-003, RL-RNS-004.
 #[test]
 fn basis_transport_is_continuous_along_a_rollout() {
     let task = paper_task();
@@ -284,6 +299,7 @@ fn basis_transport_is_continuous_along_a_rollout() {
 
 /// eq. 7 and eq. 9: q̇ = 0 exactly at both ends, |q̇| ≤ q̇_max at every sample, for η̂ and
 /// random η (also on a random 6-DOF robot).
+/// Verifies RL-LAW-002, RL-LAW-005, RL-ROLL-004.
 #[test]
 fn rates_vanish_at_the_ends_and_respect_the_bound() {
     let task = paper_task();
@@ -342,6 +358,9 @@ fn rates_vanish_at_the_ends_and_respect_the_bound() {
     );
 }
 
+/// A planar arm (H~bm of rank 1) is a RankLoss at step 0 from the task constructor, never a
+/// NaN basis.
+/// Verifies RL-RNS-005.
 #[test]
 fn planar_arm_reports_rank_loss_instead_of_nan() {
     // All axes along z and everything in the xy-plane: H~bm has rank 1.

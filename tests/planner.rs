@@ -60,6 +60,9 @@ fn bits(p: &Plan<7, 4>) -> Vec<u64> {
 const FEAS: fn(f64) -> Cost = |f| Cost { phi: 0.0, f };
 const INFEAS: fn(f64, f64) -> Cost = |phi, f| Cost { phi, f };
 
+/// Constraint domination: feasible first, then smaller Φ, then smaller f; ties and failures
+/// never dominate.
+/// Verifies RL-PSO-003.
 #[test]
 fn constraint_domination_rules() {
     assert!(
@@ -90,6 +93,9 @@ fn small_swarm(particles: u32) -> (Swarm<2, 8>, Stream) {
     (Swarm::new(&cfg, &mut stream).unwrap(), stream)
 }
 
+/// gbest is the best feasible pbest, else the least violating, lowest index among equals;
+/// pbest moves only on domination.
+/// Verifies RL-PSO-004.
 #[test]
 fn gbest_is_the_best_feasible_pbest_else_the_least_violating() {
     let (mut s, _) = small_swarm(4);
@@ -120,6 +126,9 @@ fn gbest_is_the_best_feasible_pbest_else_the_least_violating() {
     assert_eq!(s.particle(1).unwrap().best_cost, FEAS(0.5));
 }
 
+/// A flat window fires the alarm, and ⌊T/2⌋ particles restart near gbest at rest; steady
+/// improvement never fires it.
+/// Verifies RL-PSO-005, RL-PSO-006.
 #[test]
 fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
     let (mut s, mut stream) = small_swarm(7);
@@ -325,6 +334,9 @@ fn exhausted_without_a_feasible_point_reports_the_least_violating() {
     assert_eq!(task.rollout(&plan.eta, &mut ()).unwrap(), plan.outcome);
 }
 
+/// m_max = 2 and an unreachable tolerance: exhausted after generation 2 (120 rollouts),
+/// with a feasible plan.
+/// Verifies RL-PSO-008, RL-PLAN-005.
 #[test]
 fn m_max_is_honoured() {
     let task = paper_task();
@@ -342,6 +354,8 @@ fn m_max_is_honoured() {
     assert_eq!(plan.outcome.phi, 0.0, "the best feasible point is reported");
 }
 
+/// Each bad planner setting is a typed error naming the setting.
+/// Verifies RL-ROB-007.
 #[test]
 fn invalid_settings_are_typed_errors() {
     let task = paper_task();
@@ -411,6 +425,8 @@ fn invalid_settings_are_typed_errors() {
 
 // --- determinism --------------------------------------------------------------------
 
+/// The same seed gives a bit-identical plan, another seed another η.
+/// Verifies RL-PSO-011.
 #[test]
 fn same_seed_same_bits_different_seed_different_bits() {
     let plan = |seed| {
@@ -427,6 +443,9 @@ fn same_seed_same_bits_different_seed_different_bits() {
     assert_ne!(a.eta, c.eta);
 }
 
+/// Budgets 1, 7, 1000, 3000 per call plan the unlimited call's bits, refinement included; a
+/// finished planner repeats.
+/// Verifies RL-PLAN-003, RL-REF-005.
 #[test]
 fn budget_slicing_gives_identical_bits() {
     let mut cfg = PlannerConfig::reference(2);
@@ -447,6 +466,9 @@ fn budget_slicing_gives_identical_bits() {
 
 // --- the reference task ---------------------------------------------------------------
 
+/// Seeds 1…10 converge, refine to f ≤ 1e-6 with Φ = 0, gbest never worsens and the base
+/// turns < 0.01°.
+/// Verifies RL-PSO-004, RL-PSO-007, RL-PLAN-005, RL-PLAN-008, RL-REF-001, RL-REF-003, RL-REF-004, RL-GOLD-007.
 #[test]
 fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
     let mut iterations = Vec::new();
@@ -505,6 +527,8 @@ fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
 
 // --- execution ----------------------------------------------------------------------
 
+/// A plan's setpoint stream is its rollout bit for bit and ends with the plan's outcome.
+/// Verifies RL-EXEC-001, RL-EXEC-002.
 #[test]
 fn streamed_setpoints_are_the_evaluated_rollout_bit_for_bit() {
     let task = paper_task();
@@ -532,6 +556,8 @@ fn streamed_setpoints_are_the_evaluated_rollout_bit_for_bit() {
     assert_eq!(sp.next(&task).unwrap(), None);
 }
 
+/// A whole plan makes no heap allocation.
+/// Verifies RL-CORE-002.
 #[test]
 fn planning_never_allocates() {
     let task = paper_task();
@@ -545,6 +571,8 @@ fn planning_never_allocates() {
     assert_eq!(info.count_total, 0);
 }
 
+/// A random 6-joint robot with capacity P = 32 plans to convergence (f ≤ 0.05, Φ = 0).
+/// Verifies RL-PLAN-006.
 #[test]
 fn a_task_of_another_robot_plans_too() {
     // Generic over N: the 6-DOF random robot of the physics tests, target from a rollout.
@@ -575,6 +603,9 @@ fn a_task_of_another_robot_plans_too() {
     }
 }
 
+/// Rejected candidates are failed particles (Φ = f = ∞), progress is never NaN, and the
+/// final error sticks.
+/// Verifies RL-PSO-012, RL-PLAN-002, RL-PLAN-008, RL-ROB-004.
 #[test]
 fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
     // Every candidate's η is so large that g overflows: each rollout is rejected
@@ -608,6 +639,9 @@ fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
     assert_eq!(p.swarm().particle(0).unwrap().best_cost, Cost::FAILED);
 }
 
+/// The task constructor names each bad start and target; a quaternion within 1e-6 of unit
+/// is normalised.
+/// Verifies RL-MODEL-005, RL-CORE-007, RL-ROB-002.
 #[test]
 fn task_constructor_names_every_bad_input() {
     use reactionless::{Motion, Pose, Robot, Task};
@@ -651,6 +685,9 @@ fn task_constructor_names_every_bad_input() {
     assert!((n - 1.0).abs() < 1e-15);
 }
 
+/// An idle or failed-reset planner returns its error from `step`; a reset plans exactly as
+/// a new planner.
+/// Verifies RL-PLAN-007, RL-ROB-008.
 #[test]
 fn an_idle_planner_refuses_to_run() {
     let mut p: Box<RefPlanner> = Box::new(reactionless::Planner::IDLE);

@@ -42,6 +42,9 @@ fn bits(o: &Outcome<7>) -> Vec<u64> {
         .collect()
 }
 
+/// Budgets 1, 7, 1000, 2999, 3000 give the one-call samples and outcome bit for bit, in
+/// ⌈S/budget⌉ calls.
+/// Verifies RL-ROLL-002, RL-ROLL-003.
 #[test]
 fn budget_slicing_is_bit_identical() {
     let (reference, calls, hash, samples) = sliced(u32::MAX);
@@ -56,6 +59,9 @@ fn budget_slicing_is_bit_identical() {
     }
 }
 
+/// Budget 0 does nothing; a finished rollout returns its outcome again without calling the
+/// sink.
+/// Verifies RL-ROLL-003.
 #[test]
 fn a_finished_rollout_stays_finished_and_zero_budget_does_nothing() {
     let task = paper_task();
@@ -77,6 +83,9 @@ fn a_finished_rollout_stays_finished_and_zero_budget_does_nothing() {
     assert!(!called);
 }
 
+/// `Rollout::new` rejects η = 0 as `EtaZero` and names an infinite b₃ as
+/// `NotFinite(Eta(6))`.
+/// Verifies RL-LAW-006, RL-LAW-007, RL-ROB-004.
 #[test]
 fn errors_are_sticky_and_typed() {
     let task = paper_task();
@@ -92,6 +101,8 @@ fn errors_are_sticky_and_typed() {
     );
 }
 
+/// A whole rollout of η̂, in slices of 100 steps, makes no heap allocation.
+/// Verifies RL-CORE-002.
 #[test]
 fn a_full_rollout_never_allocates() {
     let task = paper_task();
@@ -113,6 +124,8 @@ fn a_full_rollout_never_allocates() {
     assert_eq!(last, 30.0);
 }
 
+/// Two rollouts of η̂ give the same outcome and sample stream bit for bit.
+/// Verifies RL-ROLL-006.
 #[test]
 fn repeated_runs_are_bit_identical() {
     let (a, _, ha, _) = sliced(3000);

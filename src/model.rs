@@ -240,6 +240,8 @@ impl<const N: usize> Robot<N> {
     /// masses or velocity limits, inertia tensors that are not positive definite, axes that
     /// are not unit vectors, `lower ≥ upper`.
     ///
+    /// Verifies RL-MODEL-003.
+    ///
     /// ```
     /// use reactionless::{CHASER7, Robot};
     /// let robot = Robot::new(&CHASER7).unwrap();

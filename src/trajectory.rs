@@ -48,6 +48,8 @@ impl Motion {
     /// Non-finite or non-positive `tf_s`/`dt_s`, `t_f/dt` not a whole number (relative
     /// tolerance 1e-9) or above [`MAX_STEPS`], `n` outside `1..=`[`MAX_DEGREE`].
     ///
+    /// Verifies RL-ROB-003.
+    ///
     /// ```
     /// let m = reactionless::Motion::new(30.0, 0.01, 1).unwrap();
     /// assert_eq!(m.steps(), 3000);
@@ -171,6 +173,8 @@ impl<const K: usize> TimeLaw<K> {
     /// # Errors
     /// [`Error::NotFinite`] for a non-finite component, [`Error::EtaZero`] if all are zero,
     /// [`Error::NotPositive`] / [`Error::NotFinite`] for a bad `qd_max`.
+    ///
+    /// Verifies RL-LAW-004.
     ///
     /// ```
     /// use reactionless::{Motion, TimeLaw};

@@ -1,4 +1,7 @@
-//! Golden values of spec §8, reproduced to 1e-9 (REQ: issue 2, "golden values").
+//! Golden values of spec §8, reproduced to 1e-9.
+//!
+//! Requirements: RL-MODEL, RL-RNS, RL-LAW, RL-ROLL, RL-POSE, RL-TRUTH, RL-GOLD, RL-PROP
+//! (docs/requirements.md).
 // Spec values are quoted digit for digit as published.
 #![allow(
     clippy::unwrap_used,

@@ -1,7 +1,9 @@
-//! Physics of the core against independent computations (REQ: issue 2, "Tests").
+//! Physics of the core against independent computations.
 //!
 //! The reference for H~b, H~bm and J_G is a naive forward kinematics written straight from
 //! the URDF conventions with nalgebra isometries, differentiated by central differences.
+//!
+//! Requirements: RL-MODEL, RL-MOM, RL-RNS, RL-LAW, RL-ROLL (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,

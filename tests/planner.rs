@@ -1,5 +1,8 @@
-//! The C-PSO planner (REQ: issue 3): swarm rules on hand-made cases, determinism and
-//! budget slicing bit for bit, the reference task for seeds 1..10, refinement, execution.
+//! The C-PSO planner: swarm rules on hand-made cases, determinism and budget slicing bit
+//! for bit, the reference task for seeds 1..10, refinement, execution.
+//!
+//! Requirements: RL-MODEL, RL-PSO, RL-PLAN, RL-REF, RL-EXEC, RL-GOLD, RL-CORE, RL-ROB
+//! (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,

@@ -1,6 +1,9 @@
-//! Property tests (REQ: issue 6): invariants over random robots, configurations, η and
-//! planner settings, with a fixed seed so CI is reproducible. A failing case shrinks and is
-//! printed; add it to `proptest-regressions/` by hand if it should stay pinned.
+//! Property tests: invariants over random robots, configurations, η and planner settings,
+//! with a fixed seed so CI is reproducible. A failing case shrinks and is printed; add it to
+//! `proptest-regressions/` by hand if it should stay pinned.
+//!
+//! Requirements: RL-MOM, RL-RNS, RL-LAW, RL-ROLL, RL-TRUTH, RL-PLAN, RL-CORE, RL-ROB
+//! (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,

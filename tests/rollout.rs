@@ -1,5 +1,7 @@
 //! The rollout's contract: resumable in slices of any size with identical bits, streaming
-//! samples without storing them, and never allocating (REQ: issue 2, "Rollout").
+//! samples without storing them, never allocating, and failing for good.
+//!
+//! Requirements: RL-LAW, RL-ROLL, RL-EXEC, RL-CORE, RL-ROB (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 mod common;

@@ -1,5 +1,7 @@
 //! The sizes of the core's state are documented figures (README, "Memory"); this test
-//! pins them so the documentation cannot drift (REQ: guide, "size_of is a documented figure").
+//! pins them so the documentation cannot drift.
+//!
+//! Requirements: RL-CORE (docs/requirements.md).
 #![allow(missing_docs)]
 
 use core::mem::size_of;

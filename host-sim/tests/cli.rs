@@ -1,5 +1,9 @@
-//! End-to-end tests of the `host-sim` binary (REQ: issue 2, "host-sim: first two
-//! subcommands"): outputs, argument forms, exit codes, and nothing written on bad input.
+//! End-to-end tests of the `host-sim` binary (model, rollout, plan, bench): outputs,
+//! argument forms, exit codes, and nothing written on bad input.
+//!
+//! Requirements: RL-SIM-CLI, RL-SIM-TASK, RL-SIM-OUT, RL-SIM-BENCH, RL-ROB, and through
+//! host-sim RL-MOM, RL-RNS, RL-LAW, RL-TRUTH, RL-PSO, RL-PLAN, RL-REF, RL-GOLD, RL-CORE
+//! (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 use assert_cmd::Command;
@@ -380,7 +384,7 @@ fn a_foreign_output_directory_is_never_replaced() {
     );
 }
 
-// --- plan and bench (REQ: issue 3, host-sim) ------------------------------------------
+// --- plan and bench -------------------------------------------------------------------
 
 fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()

@@ -1,6 +1,8 @@
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 //! `host_sim::plots::write_plots`: every figure as PNG and SVG, with the expected sizes and
 //! labels; bad input is an error and writes nothing.
+//!
+//! Requirements: RL-SIM-PLOT (docs/requirements.md).
 
 use host_sim::plots::{PlotData, write_plots};
 use std::path::Path;

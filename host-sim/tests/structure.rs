@@ -1,5 +1,7 @@
 //! The shape of host-sim that keeps it cheap to extend: subcommands are leaves, and every
 //! planner setting names its task-file key.
+//!
+//! Requirements: RL-SIM-CLI, RL-SIM-TASK (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,

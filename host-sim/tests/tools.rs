@@ -1,5 +1,9 @@
-//! End-to-end tests of check, record/replay, plots, generate, frames and campaign
-//! (REQ: issue 4), failures included. Exit codes: 0 ok, 1 failed/not converged, 2 bad input.
+//! End-to-end tests of check, record/replay, plots, generate, frames, campaign and target,
+//! failures included. Exit codes: 0 ok, 1 failed/not converged, 2 bad input.
+//!
+//! Requirements: RL-SIM-CLI, RL-SIM-TASK, RL-SIM-OUT, RL-SIM-CHK, RL-SIM-REC, RL-SIM-GEN,
+//! RL-SIM-CAMP, RL-SIM-FRM, RL-SIM-PLOT, RL-FW, RL-BLOCK, RL-ROB, and through host-sim
+//! RL-ROLL, RL-TRUTH, RL-PSO, RL-PLAN, RL-GOLD, RL-PROP, RL-CORE (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 use assert_cmd::Command;

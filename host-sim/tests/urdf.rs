@@ -1,9 +1,12 @@
-//! URDF loading (REQ: issue 2, "host-sim loads any serial chain of revolute joints").
+//! URDF loading: host-sim loads any serial chain of revolute joints.
 //!
 //! The reference is the raw URDF tree, every link included (fixed ones too), walked with
 //! nalgebra isometries: mass, CoM, H~b and H~bm (by central differences of link velocities)
 //! must match the core running on the extracted chain, which proves the composition of
 //! fixed joints and the merging of rigid attachments.
+//!
+//! Requirements: RL-SIM-URDF, RL-SIM-TASK, RL-ROB, and through host-sim RL-MODEL, RL-MOM
+//! (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 use host_sim::urdf::{Chain, parse};

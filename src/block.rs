@@ -417,12 +417,16 @@ mod tests {
         }
     }
 
+    /// CRC-32 of "123456789" is the standard check value 0xCBF43926.
+    /// Verifies RL-BLOCK-002.
     #[test]
     fn crc32_known_answer() {
         // The standard check value of CRC-32/ISO-HDLC.
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     }
 
+    /// A block encodes to `block_len(7)` bytes and decodes to itself exactly.
+    /// Verifies RL-BLOCK-001.
     #[test]
     fn roundtrip_is_exact() {
         let mut buf = [0u8; 4096];
@@ -431,6 +435,9 @@ mod tests {
         assert_eq!(decode::<7>(&buf[..len]).unwrap(), block());
     }
 
+    /// Every single-byte corruption, a wrong joint count, truncation and a short buffer are
+    /// typed block errors.
+    /// Verifies RL-BLOCK-003.
     #[test]
     fn every_corruption_is_caught() {
         let mut buf = [0u8; 4096];

@@ -127,6 +127,8 @@ impl PlannerConfig {
     /// The first bad setting, named by its [`Param`] (whose [`Param::key`] is the task
     /// file's key).
     ///
+    /// Verifies RL-SIM-TASK-004, RL-ROB-007.
+    ///
     /// ```
     /// use reactionless::{Error, Param, PlannerConfig};
     /// let mut c = PlannerConfig::reference(1);

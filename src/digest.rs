@@ -76,6 +76,7 @@ mod tests {
     use super::*;
 
     /// FNV-1a-64 reference vectors: "" and "a" (bytes), from the algorithm's authors.
+    /// Verifies RL-SIM-REC-004.
     #[test]
     fn fnv1a_reference_values() {
         assert_eq!(TrajectoryDigest::new().value(), 0xcbf2_9ce4_8422_2325);
@@ -84,6 +85,8 @@ mod tests {
         assert_eq!(d.value(), 0xaf63_dc4c_8601_ec8c);
     }
 
+    /// One flipped bit in one sample changes the trajectory digest.
+    /// Verifies RL-SIM-REC-004.
     #[test]
     fn one_bit_changes_the_digest() {
         let s = Sample {

@@ -89,6 +89,8 @@ impl Param {
     /// `"planner.stagnation.window"`, `"motion.tf_s"`), or `None` for what a task file does
     /// not hold directly (the robot's URDF values, η).
     ///
+    /// Verifies RL-SIM-TASK-004.
+    ///
     /// ```
     /// use reactionless::Param;
     /// assert_eq!(Param::StagnationWindow.key(), Some("planner.stagnation.window"));

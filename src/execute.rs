@@ -36,6 +36,8 @@ impl<const N: usize, const K: usize> Setpoints<N, K> {
     /// # Errors
     /// As [`Rollout::advance`] (rank loss, non-finite state); the stream then stays failed.
     ///
+    /// Verifies RL-EXEC-001.
+    ///
     /// ```
     /// use reactionless::{Setpoints, reference};
     /// let task = reference::paper_task().unwrap();

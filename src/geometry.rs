@@ -614,6 +614,9 @@ mod tests {
         (a - b).abs().max() <= tol
     }
 
+    /// rpy matrices are rotations (orthonormal, det 1) and round-trip through rpy within
+    /// 1e-15.
+    /// Verifies RL-MODEL-001.
     #[test]
     fn rpy_roundtrip_and_orthonormal() {
         for rpy in [
@@ -631,6 +634,8 @@ mod tests {
         assert_eq!(rpy_matrix([0.0; 3]), Mat3::identity());
     }
 
+    /// The rpy matrix is URDF's Rz(yaw)·Ry(pitch)·Rx(roll) within 1e-15.
+    /// Verifies RL-MODEL-001.
     #[test]
     fn rpy_matches_urdf_composition() {
         // URDF: R = Rz(y) Ry(p) Rx(r), each an elementary rotation.
@@ -641,6 +646,9 @@ mod tests {
         assert!(close(&rpy_matrix([r, p, y]), &(rz * ry * rx), 1e-15));
     }
 
+    /// A joint frame is a rotation taking z onto its axis (±z and the coordinate axes
+    /// included).
+    /// Verifies RL-MODEL-001.
     #[test]
     fn frame_with_z_is_rotation_onto_axis() {
         for k in [
@@ -659,6 +667,9 @@ mod tests {
         assert_eq!(frame_with_z(&Vec3::z()), Mat3::identity());
     }
 
+    /// ZXZ angles reproduce rotations within 4e-16, parallel and antiparallel axes
+    /// included.
+    /// Verifies RL-MODEL-001.
     #[test]
     fn zxz_reproduces_rotations_including_parallel_axes() {
         let mut cases = vec![
@@ -687,6 +698,8 @@ mod tests {
         }
     }
 
+    /// A rotation's quaternion has w ≥ 0 and maps back to it within 1e-15.
+    /// Verifies RL-MODEL-005.
     #[test]
     fn quaternion_roundtrip() {
         for rpy in [
@@ -702,6 +715,8 @@ mod tests {
         }
     }
 
+    /// The quaternion log inverts exp within 1e-15, tiny angles included.
+    /// Verifies RL-POSE-002.
     #[test]
     fn log_inverts_exp() {
         for t in [
@@ -715,6 +730,9 @@ mod tests {
         assert!((quat_angle(quat_exp(&Vec3::new(0.0, 0.5, 0.0))) - 0.5).abs() < 1e-15);
     }
 
+    /// The pose error is [Δp; log(R_des Rᵀ)] (a rotation vector, within 1e-15) and f its
+    /// norm.
+    /// Verifies RL-POSE-002.
     #[test]
     fn pose_error_is_rotation_vector() {
         let a = Pose::from_parts(&Vec3::new(1.0, 2.0, 3.0), &rpy_matrix([0.1, 0.2, 0.3]));
@@ -728,6 +746,9 @@ mod tests {
         assert!((e.norm() - libm::sqrt(0.25 + delta.norm_squared())).abs() < 1e-15);
     }
 
+    /// Symmetric 3×3 rotation, LDLᵀ solve, determinant, minors and Cholesky match dense
+    /// maths; indefinite is refused.
+    /// Verifies RL-MODEL-001.
     #[test]
     fn sym3_rotation_and_solve() {
         let s = Sym3 {

@@ -7,6 +7,8 @@
 
 /// `q ← q + dt·q̇`, joint by joint (rad, rad/s, s): the explicit Euler step of eq. 19.
 ///
+/// Verifies RL-ROLL-001.
+///
 /// ```
 /// let mut q = [0.5, -1.0];
 /// reactionless::integrator::euler_step(&mut q, &[0.1, 0.2], 0.01);
@@ -28,6 +30,8 @@ pub fn euler_step<const N: usize>(q: &mut [f64; N], qd: &[f64; N], dt: f64) {
 ///
 /// # Errors
 /// The first error of `f`.
+///
+/// Verifies RL-TRUTH-001.
 ///
 /// ```
 /// let mut mids = Vec::new();

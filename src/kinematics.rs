@@ -52,6 +52,8 @@ pub struct Frames<const N: usize> {
 impl<const N: usize> Frames<N> {
     /// Forward kinematics at `q` (rad).
     ///
+    /// Verifies RL-MODEL-001.
+    ///
     /// ```
     /// use reactionless::{CHASER7, Frames, Robot};
     /// let robot = Robot::new(&CHASER7).unwrap();

@@ -19,6 +19,8 @@
 //! every planner setting, [`truth`] checks a trajectory, [`random`] is the only source of
 //! randomness, [`reference`] holds the reference scenario of spec §8.
 //!
+//! Verifies RL-GOLD-004.
+//!
 //! ```
 //! use reactionless::{CHASER7, Motion, Pose, Robot, Task};
 //! let robot = Robot::new(&CHASER7)?;
@@ -34,6 +36,8 @@
 //! assert!(outcome.f < 1e-3);
 //! # Ok::<(), reactionless::Error>(())
 //! ```
+//!
+//! Verifies RL-CORE-005.
 //!
 //! A null-space dimension other than `N − 3` does not compile:
 //!

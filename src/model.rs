@@ -240,6 +240,8 @@ impl<const N: usize> Robot<N> {
     /// masses or velocity limits, inertia tensors that are not positive definite, axes that
     /// are not unit vectors, `lower ≥ upper`.
     ///
+    /// Verifies RL-MODEL-003.
+    ///
     /// ```
     /// use reactionless::{CHASER7, Robot};
     /// let robot = Robot::new(&CHASER7).unwrap();
@@ -495,6 +497,8 @@ mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
     use super::*;
 
+    /// CHASER7 validates, with 1093 kg in total and q̇_max = 15°/s.
+    /// Verifies RL-MODEL-003.
     #[test]
     fn chaser7_is_valid() {
         let r = Robot::new(&CHASER7).unwrap();
@@ -505,6 +509,8 @@ mod tests {
         assert_eq!(r.qd_max(), 0.2617993878);
     }
 
+    /// Each bad robot parameter is a typed error naming its body or joint, numbered from 1.
+    /// Verifies RL-CORE-007, RL-ROB-001.
     #[test]
     fn each_bad_parameter_is_named() {
         let mut d = CHASER7;
@@ -545,6 +551,8 @@ mod tests {
         assert_eq!(Robot::new(&d), Err(Error::NotFinite(Param::EndEffector)));
     }
 
+    /// Φ is 0 within the limits and the sum of the excursions beyond them (eq. 23).
+    /// Verifies RL-ROLL-005.
     #[test]
     fn violation_is_eq_23() {
         let r = Robot::new(&CHASER7).unwrap();

@@ -88,6 +88,8 @@ fn full_pass<const N: usize>(
 impl<const N: usize> Momentum<N> {
     /// `H~b` and `H~bm` for the configuration of `frames`.
     ///
+    /// Verifies RL-GOLD-001.
+    ///
     /// ```
     /// use reactionless::{CHASER7, Frames, Momentum, Robot};
     /// let robot = Robot::new(&CHASER7).unwrap();

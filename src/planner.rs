@@ -251,6 +251,8 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// # Errors
     /// A bad setting (see [`PlannerConfig::validate`]).
     ///
+    /// Verifies RL-PLAN-001, RL-PLAN-008.
+    ///
     /// One flight frame gives the planner a slice of work:
     ///
     /// ```

@@ -100,6 +100,7 @@ mod tests {
     /// implementation of both published algorithms (Python, in the commit that added this
     /// test). If this fails, the random stream changed and every plan and golden record
     /// with it.
+    /// Verifies RL-PSO-010.
     #[test]
     fn first_values_of_seed_1_are_pinned() {
         let mut s = Stream::new(1);
@@ -122,6 +123,7 @@ mod tests {
 
     /// The generator's stream is not the planner's: planning a generated task with the
     /// same seed cannot start at the generating η. Its first value is pinned as well.
+    /// Verifies RL-PSO-010.
     #[test]
     fn purposes_have_their_own_streams() {
         let mut planner = Stream::for_purpose(1, Purpose::Planner);
@@ -140,6 +142,8 @@ mod tests {
         );
     }
 
+    /// Uniforms lie in [0, 1), indices in 0..n, and every draw is counted.
+    /// Verifies RL-PSO-010.
     #[test]
     fn uniform_is_in_unit_interval_and_index_in_range() {
         let mut s = Stream::new(7);

@@ -41,6 +41,8 @@ pub const DT_S: f64 = 0.01;
 /// # Errors
 /// None for the constants as shipped; the `Result` carries the core's validation.
 ///
+/// Verifies RL-GOLD-006.
+///
 /// ```
 /// let task = reactionless::reference::paper_task().unwrap();
 /// assert_eq!(task.motion().steps(), 3000);

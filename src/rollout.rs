@@ -200,6 +200,8 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     /// [`Error::RankLoss`] or [`Error::NonFiniteState`] at the step where it happened; the
     /// rollout then stays failed and returns the same error on every later call.
     ///
+    /// Verifies RL-ROLL-002.
+    ///
     /// ```
     /// use reactionless::{CHASER7, Motion, Pose, Progress, Robot, Rollout, Task};
     /// let robot = Robot::new(&CHASER7).unwrap();

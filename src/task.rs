@@ -46,6 +46,8 @@ impl<const N: usize, const K: usize> Task<N, K> {
     /// Non-finite values, a start outside the joint limits, a non-unit quaternion, or
     /// [`Error::RankLoss`] at step 0 if `H~bm(q0)` is rank-deficient.
     ///
+    /// Verifies RL-POSE-001, RL-GOLD-001.
+    ///
     /// ```
     /// use reactionless::{CHASER7, Motion, Pose, Robot, Task};
     /// let robot = Robot::new(&CHASER7).unwrap();

@@ -48,6 +48,8 @@ impl Motion {
     /// Non-finite or non-positive `tf_s`/`dt_s`, `t_f/dt` not a whole number (relative
     /// tolerance 1e-9) or above [`MAX_STEPS`], `n` outside `1..=`[`MAX_DEGREE`].
     ///
+    /// Verifies RL-ROB-003.
+    ///
     /// ```
     /// let m = reactionless::Motion::new(30.0, 0.01, 1).unwrap();
     /// assert_eq!(m.steps(), 3000);
@@ -171,6 +173,8 @@ impl<const K: usize> TimeLaw<K> {
     /// # Errors
     /// [`Error::NotFinite`] for a non-finite component, [`Error::EtaZero`] if all are zero,
     /// [`Error::NotPositive`] / [`Error::NotFinite`] for a bad `qd_max`.
+    ///
+    /// Verifies RL-LAW-004.
     ///
     /// ```
     /// use reactionless::{Motion, TimeLaw};
@@ -309,6 +313,9 @@ mod tests {
         best
     }
 
+    /// β_max from the critical points (eqs. 11–13) matches dense sampling, never below it
+    /// (n = 1…4, a = 0 included).
+    /// Verifies RL-LAW-003.
     #[test]
     fn peak_matches_sampling_eqs_11_to_13() {
         for &(a, b) in &[
@@ -332,6 +339,9 @@ mod tests {
         }
     }
 
+    /// The factored time law equals eq. 5 within 1e-12 and is exactly 0 at t = 0 and t =
+    /// t_f.
+    /// Verifies RL-LAW-001, RL-LAW-002.
     #[test]
     fn factored_form_equals_eq_5() {
         let (a, b, tf) = (1.3, -2.7, 4.0);
@@ -345,6 +355,9 @@ mod tests {
         assert_eq!(law.beta(tf)[0], 0.0);
     }
 
+    /// 2^e·η gives a bit-identical α(t), subnormal and huge η too; η = 0, NaN and an
+    /// overflowing g are errors.
+    /// Verifies RL-LAW-007, RL-ROB-004.
     #[test]
     fn scaling_eta_by_powers_of_two_is_exact() {
         let m = Motion::new(30.0, 0.01, 1).unwrap();
@@ -381,6 +394,9 @@ mod tests {
         );
     }
 
+    /// Each bad motion (t_f, dt, whole steps, step count, degree) is its typed error; the
+    /// last sample is at t_f.
+    /// Verifies RL-ROB-003.
     #[test]
     fn motion_validation() {
         assert_eq!(Motion::new(30.0, 0.01, 1).unwrap().time(3000), 30.0);

@@ -1,5 +1,8 @@
-//! The C-PSO planner (REQ: issue 3): swarm rules on hand-made cases, determinism and
-//! budget slicing bit for bit, the reference task for seeds 1..10, refinement, execution.
+//! The C-PSO planner: swarm rules on hand-made cases, determinism and budget slicing bit
+//! for bit, the reference task for seeds 1..10, refinement, execution.
+//!
+//! Requirements: RL-MODEL, RL-PSO, RL-PLAN, RL-REF, RL-EXEC, RL-GOLD, RL-CORE, RL-ROB
+//! (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,
@@ -11,8 +14,8 @@ mod common;
 use common::*;
 use reactionless::random::Stream;
 use reactionless::{
-    Cost, Error, Event, Param, Plan, Planner, PlannerConfig, RefineStop, Sample, Setpoints, Status,
-    Stop, Swarm, Task, TruthModel,
+    Candidate, Cost, Cpso, Error, Evaluation, Event, Next, Optimizer, Param, Plan, Planner,
+    PlannerConfig, RefineStop, Sample, Setpoints, Status, Stop, Swarm, Task, TruthModel,
 };
 
 type RefPlanner = Planner<7, 4, 64>;
@@ -60,6 +63,9 @@ fn bits(p: &Plan<7, 4>) -> Vec<u64> {
 const FEAS: fn(f64) -> Cost = |f| Cost { phi: 0.0, f };
 const INFEAS: fn(f64, f64) -> Cost = |phi, f| Cost { phi, f };
 
+/// Constraint domination: feasible first, then smaller Φ, then smaller f; ties and failures
+/// never dominate.
+/// Verifies RL-PSO-003.
 #[test]
 fn constraint_domination_rules() {
     assert!(
@@ -90,6 +96,9 @@ fn small_swarm(particles: u32) -> (Swarm<2, 8>, Stream) {
     (Swarm::new(&cfg, &mut stream).unwrap(), stream)
 }
 
+/// gbest is the best feasible pbest, else the least violating, lowest index among equals;
+/// pbest moves only on domination.
+/// Verifies RL-PSO-004.
 #[test]
 fn gbest_is_the_best_feasible_pbest_else_the_least_violating() {
     let (mut s, _) = small_swarm(4);
@@ -120,6 +129,9 @@ fn gbest_is_the_best_feasible_pbest_else_the_least_violating() {
     assert_eq!(s.particle(1).unwrap().best_cost, FEAS(0.5));
 }
 
+/// A flat window fires the alarm, and ⌊T/2⌋ particles restart near gbest at rest; steady
+/// improvement never fires it.
+/// Verifies RL-PSO-005, RL-PSO-006.
 #[test]
 fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
     let (mut s, mut stream) = small_swarm(7);
@@ -155,6 +167,179 @@ fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
     }
 }
 
+/// The initial swarm: T particles at B·(2u − 1) per component, u drawn from the task's
+/// stream particle by particle (a₁, b₁, …, a_K, b_K), hence uniform in [−B, B]^{2K}, at
+/// rest, each its own pbest; nothing else is drawn.
+/// Verifies RL-PSO-001, RL-PSO-010.
+#[test]
+fn the_swarm_starts_uniform_in_the_eta_box_at_rest() {
+    // The reference settings through the planner: T = 40, B = 5, 2K = 8.
+    let p = RefPlanner::new(paper_task(), PlannerConfig::reference(4)).unwrap();
+    let s = p.swarm();
+    assert_eq!(s.count(), 40);
+    assert!(s.particle(40).is_none());
+    let mut u = Stream::new(4);
+    let mut components = Vec::new();
+    for j in 0..40 {
+        let part = s.particle(j).unwrap();
+        for x in part.position.iter().flatten() {
+            let want = 5.0 * (2.0 * u.uniform() - 1.0);
+            assert_eq!(x.to_bits(), want.to_bits(), "particle {j}");
+            components.push(*x);
+        }
+        assert_eq!(part.velocity, [[0.0; 2]; 4], "particle {j} starts at rest");
+        assert_eq!(part.best, part.position);
+    }
+    // Uniform over [−5, 5): each unit-wide bin holds its share of the 320 components.
+    assert!(components.iter().all(|x| (-5.0..5.0).contains(x)));
+    let mut bins = [0u32; 10];
+    for x in &components {
+        bins[((x + 5.0).floor() as usize).min(9)] += 1;
+    }
+    assert!(bins.iter().all(|&n| (12..=52).contains(&n)), "{bins:?}");
+    let mean = components.iter().sum::<f64>() / components.len() as f64;
+    assert!(mean.abs() < 0.6, "mean {mean}");
+    // Other T and B, directly on a swarm: exactly T·2K draws, each B·(2u − 1).
+    let mut cfg = PlannerConfig::reference(1);
+    cfg.particles = 5;
+    cfg.eta_bound = 0.25;
+    let mut stream = Stream::new(9);
+    let swarm: Swarm<2, 8> = Swarm::new(&cfg, &mut stream).unwrap();
+    assert_eq!(stream.draws(), 5 * 4);
+    let mut u = Stream::new(9);
+    for j in 0..5 {
+        let part = swarm.particle(j).unwrap();
+        for x in part.position.iter().flatten() {
+            assert_eq!(x.to_bits(), (0.25 * (2.0 * u.uniform() - 1.0)).to_bits());
+        }
+        assert_eq!(part.velocity, [[0.0; 2]; 2]);
+    }
+}
+
+/// Two swarm moves recomputed by hand from the same stream draws (r₁ then r₂ per
+/// component, particle by particle): ν ← ω(m)·ν + c₁r₁(pbest − η) + c₂r₂(gbest − η),
+/// η ← η + ν (eqs. 20–21), with ω(m) = ω_max − m(ω_max − ω_min)/m_max (eq. 22); and the
+/// spec §7 defaults.
+/// Verifies RL-PSO-002, RL-PSO-010.
+#[test]
+fn a_swarm_move_is_eqs_20_to_22() {
+    let reference = PlannerConfig::reference(1);
+    assert_eq!((reference.c1, reference.c2), (1.49618, 1.49618));
+    assert_eq!(reference.inertia_weight(0), 0.9);
+    assert!((reference.inertia_weight(200) - 0.4).abs() < 1e-15);
+    // c₁ ≠ c₂ so that swapping the cognitive and social terms would show.
+    let mut cfg = reference;
+    cfg.particles = 4;
+    cfg.max_iterations = 10;
+    cfg.c1 = 1.2;
+    cfg.c2 = 1.7;
+    let (w_max, w_min, m_max) = (0.9, 0.4, 10.0);
+    let mut stream = Stream::new(11);
+    let mut s: Swarm<2, 8> = Swarm::new(&cfg, &mut stream).unwrap();
+    // Generation 0: particle 2 is the best feasible point.
+    for (j, c) in [INFEAS(0.3, 1.0), INFEAS(0.2, 1.0), FEAS(0.7), FEAS(0.9)]
+        .into_iter()
+        .enumerate()
+    {
+        s.record(j, c);
+    }
+    assert!(!s.end_generation());
+    let later = [FEAS(0.1), INFEAS(0.5, 0.0), FEAS(0.8), FEAS(0.6)];
+    for m in 1..=2u32 {
+        let before: Vec<_> = (0..4).map(|j| *s.particle(j).unwrap()).collect();
+        let (g, _) = s.gbest();
+        let w = w_max - f64::from(m) * (w_max - w_min) / m_max;
+        let mut hand = stream.clone();
+        s.advance(m, &mut stream);
+        for (j, b) in before.iter().enumerate() {
+            let after = s.particle(j).unwrap();
+            let comps = b
+                .position
+                .iter()
+                .flatten()
+                .zip(b.velocity.iter().flatten())
+                .zip(b.best.iter().flatten())
+                .zip(g.iter().flatten());
+            let moved = after
+                .position
+                .iter()
+                .flatten()
+                .zip(after.velocity.iter().flatten());
+            for (c, ((((x, v), pb), gb), (x_new, v_new))) in comps.zip(moved).enumerate() {
+                let r1 = hand.uniform();
+                let r2 = hand.uniform();
+                let v_want = w * v + 1.2 * r1 * (pb - x) + 1.7 * r2 * (gb - x);
+                assert_eq!(*v_new, v_want, "move {m}, particle {j}, component {c}: ν");
+                assert_eq!(
+                    *x_new,
+                    x + v_want,
+                    "move {m}, particle {j}, component {c}: η"
+                );
+            }
+        }
+        assert_eq!(stream, hand, "move {m} draws exactly r₁, r₂ per component");
+        // New costs: pbest moves for particles 0 and 3 only, gbest becomes particle 0.
+        for (j, c) in later.into_iter().enumerate() {
+            s.record(j, c);
+        }
+        assert!(!s.end_generation());
+        assert_eq!(s.gbest_index(), 0);
+    }
+}
+
+/// With no feasible point anywhere (every joint limit within 1 mrad of the start), the
+/// exhausted plan is the least violating of all evaluated rollouts: the same η and
+/// outcome as the minimum of Φ (then f) over every C-PSO candidate rolled out to the end.
+/// Verifies RL-PSO-008, RL-PSO-009, RL-PLAN-004, RL-PLAN-005.
+#[test]
+fn exhausted_without_a_feasible_point_reports_the_least_violating() {
+    let mut d = reactionless::CHASER7;
+    for (j, q) in d.joints.iter_mut().zip(q0()) {
+        j.lower = q - 1e-3;
+        j.upper = q + 1e-3;
+    }
+    let robot = reactionless::Robot::new(&d).unwrap();
+    let task = Task::<7, 4>::new(robot, q0(), TARGET, *paper_task().motion()).unwrap();
+    let mut cfg = PlannerConfig::reference(6);
+    cfg.particles = 6;
+    cfg.max_iterations = 3;
+    let mut p = RefPlanner::new(task.clone(), cfg).unwrap();
+    let (s, _) = run(&mut p, u32::MAX);
+    let plan = *plan_of(&s);
+    // The same C-PSO driven by hand, every candidate rolled out to the end (no cap).
+    let mut stream = Stream::new(6);
+    let mut cpso: Box<Cpso<4, 64>> = Box::new(Cpso::IDLE);
+    cpso.reset(&cfg, &mut stream).unwrap();
+    let mut evaluated = Vec::new();
+    loop {
+        let c: Candidate<4> = Optimizer::<7, 4>::candidate(&*cpso);
+        let o = task.rollout(&c.eta, &mut ()).unwrap();
+        evaluated.push((c.eta, o));
+        if let Next::Done(stop) = cpso.absorb(&Evaluation::Finished(o), &mut stream, &mut ()) {
+            assert_eq!(stop, Stop::Exhausted);
+            break;
+        }
+    }
+    assert_eq!(evaluated.len(), 6 * 4);
+    assert!(
+        evaluated.iter().all(|(_, o)| o.phi > 0.0),
+        "nothing is feasible"
+    );
+    let (eta, least) = evaluated
+        .iter()
+        .min_by(|a, b| a.1.phi.total_cmp(&b.1.phi).then(a.1.f.total_cmp(&b.1.f)))
+        .unwrap();
+    assert_eq!(plan.stop, Stop::Exhausted);
+    assert!(!plan.converged());
+    assert_eq!(plan.rollouts, 6 * 4);
+    assert_eq!(plan.eta, *eta);
+    assert_eq!(plan.outcome, *least);
+    assert_eq!(task.rollout(&plan.eta, &mut ()).unwrap(), plan.outcome);
+}
+
+/// m_max = 2 and an unreachable tolerance: exhausted after generation 2 (120 rollouts),
+/// with a feasible plan.
+/// Verifies RL-PSO-008, RL-PLAN-005.
 #[test]
 fn m_max_is_honoured() {
     let task = paper_task();
@@ -172,6 +357,8 @@ fn m_max_is_honoured() {
     assert_eq!(plan.outcome.phi, 0.0, "the best feasible point is reported");
 }
 
+/// Each bad planner setting is a typed error naming the setting.
+/// Verifies RL-ROB-007.
 #[test]
 fn invalid_settings_are_typed_errors() {
     let task = paper_task();
@@ -241,6 +428,8 @@ fn invalid_settings_are_typed_errors() {
 
 // --- determinism --------------------------------------------------------------------
 
+/// The same seed gives a bit-identical plan, another seed another η.
+/// Verifies RL-PSO-011.
 #[test]
 fn same_seed_same_bits_different_seed_different_bits() {
     let plan = |seed| {
@@ -257,6 +446,9 @@ fn same_seed_same_bits_different_seed_different_bits() {
     assert_ne!(a.eta, c.eta);
 }
 
+/// Budgets 1, 7, 1000, 3000 per call plan the unlimited call's bits, refinement included; a
+/// finished planner repeats.
+/// Verifies RL-PLAN-003, RL-REF-005.
 #[test]
 fn budget_slicing_gives_identical_bits() {
     let mut cfg = PlannerConfig::reference(2);
@@ -277,6 +469,9 @@ fn budget_slicing_gives_identical_bits() {
 
 // --- the reference task ---------------------------------------------------------------
 
+/// Seeds 1…10 converge, refine to f ≤ 1e-6 with Φ = 0, gbest never worsens and the base
+/// turns < 0.01°.
+/// Verifies RL-PSO-004, RL-PSO-007, RL-PLAN-005, RL-PLAN-008, RL-REF-001, RL-REF-003, RL-REF-004, RL-GOLD-007.
 #[test]
 fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
     let mut iterations = Vec::new();
@@ -335,6 +530,8 @@ fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
 
 // --- execution ----------------------------------------------------------------------
 
+/// A plan's setpoint stream is its rollout bit for bit and ends with the plan's outcome.
+/// Verifies RL-EXEC-001, RL-EXEC-002.
 #[test]
 fn streamed_setpoints_are_the_evaluated_rollout_bit_for_bit() {
     let task = paper_task();
@@ -362,6 +559,8 @@ fn streamed_setpoints_are_the_evaluated_rollout_bit_for_bit() {
     assert_eq!(sp.next(&task).unwrap(), None);
 }
 
+/// A whole plan makes no heap allocation.
+/// Verifies RL-CORE-002.
 #[test]
 fn planning_never_allocates() {
     let task = paper_task();
@@ -375,6 +574,8 @@ fn planning_never_allocates() {
     assert_eq!(info.count_total, 0);
 }
 
+/// A random 6-joint robot with capacity P = 32 plans to convergence (f ≤ 0.05, Φ = 0).
+/// Verifies RL-PLAN-006.
 #[test]
 fn a_task_of_another_robot_plans_too() {
     // Generic over N: the 6-DOF random robot of the physics tests, target from a rollout.
@@ -405,6 +606,9 @@ fn a_task_of_another_robot_plans_too() {
     }
 }
 
+/// Rejected candidates are failed particles (Φ = f = ∞), progress is never NaN, and the
+/// final error sticks.
+/// Verifies RL-PSO-012, RL-PLAN-002, RL-PLAN-008, RL-ROB-004.
 #[test]
 fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
     // Every candidate's η is so large that g overflows: each rollout is rejected
@@ -438,6 +642,9 @@ fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
     assert_eq!(p.swarm().particle(0).unwrap().best_cost, Cost::FAILED);
 }
 
+/// The task constructor names each bad start and target; a quaternion within 1e-6 of unit
+/// is normalised.
+/// Verifies RL-MODEL-005, RL-CORE-007, RL-ROB-002.
 #[test]
 fn task_constructor_names_every_bad_input() {
     use reactionless::{Motion, Pose, Robot, Task};
@@ -481,6 +688,9 @@ fn task_constructor_names_every_bad_input() {
     assert!((n - 1.0).abs() < 1e-15);
 }
 
+/// An idle or failed-reset planner returns its error from `step`; a reset plans exactly as
+/// a new planner.
+/// Verifies RL-PLAN-007, RL-ROB-008.
 #[test]
 fn an_idle_planner_refuses_to_run() {
     let mut p: Box<RefPlanner> = Box::new(reactionless::Planner::IDLE);

@@ -1,6 +1,9 @@
-//! Property tests (REQ: issue 6): invariants over random robots, configurations, η and
-//! planner settings, with a fixed seed so CI is reproducible. A failing case shrinks and is
-//! printed; add it to `proptest-regressions/` by hand if it should stay pinned.
+//! Property tests: invariants over random robots, configurations, η and planner settings,
+//! with a fixed seed so CI is reproducible. A failing case shrinks and is printed; add it to
+//! `proptest-regressions/` by hand if it should stay pinned.
+//!
+//! Requirements: RL-MOM, RL-RNS, RL-LAW, RL-ROLL, RL-TRUTH, RL-PLAN, RL-CORE, RL-ROB
+//! (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,
@@ -70,6 +73,9 @@ fn basis_holds<const N: usize, const K: usize>(
 proptest! {
     #![proptest_config(config(200))]
 
+    /// For random robots and configurations the basis is finite, orthonormal and
+    /// reactionless, or a rank loss.
+    /// Verifies RL-RNS-001, RL-RNS-005.
     #[test]
     fn null_space_basis_is_orthonormal_and_reactionless(seed in any::<u64>(), which in 0u8..3) {
         let mut rng = rng(seed);
@@ -136,6 +142,7 @@ proptest! {
 
     /// The truth model's base motion conserves angular momentum (zero at start) for any
     /// joint motion, not only reactionless ones.
+    /// Verifies RL-MOM-002, RL-TRUTH-003.
     #[test]
     fn truth_model_base_motion_conserves_momentum(seed in any::<u64>(), rates in prop::array::uniform7(-0.3f64..0.3)) {
         let mut rng = rng(seed);
@@ -169,6 +176,7 @@ proptest! {
     #![proptest_config(config(300))]
 
     /// A rollout of any η is either rejected with a typed error or gives finite outputs.
+    /// Verifies RL-LAW-005, RL-CORE-007, RL-ROB-005.
     #[test]
     fn rollout_of_any_eta_is_finite_or_a_typed_error(eta in prop::array::uniform8(any_f64())) {
         let task = short_task();
@@ -194,6 +202,7 @@ proptest! {
     /// The violation cap is exact: a capped rollout is abandoned only if the full rollout
     /// ends with Φ above the cap (and its partial Φ is a lower bound of it); otherwise it
     /// finishes bit-identical to the uncapped rollout.
+    /// Verifies RL-ROLL-003, RL-ROLL-007.
     #[test]
     fn a_violation_cap_abandons_only_rollouts_that_would_exceed_it(
         eta in prop::array::uniform8(-8.0f64..8.0),
@@ -306,6 +315,7 @@ proptest! {
 
     /// Any valid settings: the planner ends with finite values (never NaN), and the result
     /// does not depend on how the work is sliced.
+    /// Verifies RL-LAW-005, RL-PLAN-003, RL-CORE-007.
     #[test]
     fn planner_is_finite_and_slicing_invariant(cfg in small_planner_config(), budget in 1u32..400) {
         let task = short_task();
@@ -323,6 +333,9 @@ proptest! {
     }
 }
 
+/// η scaled by 2^±300 and 2^±1000 rolls out bit-identically; a subnormal η still plans its
+/// direction.
+/// Verifies RL-LAW-007.
 #[test]
 fn a_huge_or_tiny_eta_plans_the_same_path_as_its_normalised_form() {
     // Scaling η by a power of two (keeping it normal) never changes a bit of the trajectory.

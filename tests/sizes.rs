@@ -1,10 +1,15 @@
 //! The sizes of the core's state are documented figures (README, "Memory"); this test
-//! pins them so the documentation cannot drift (REQ: guide, "size_of is a documented figure").
+//! pins them so the documentation cannot drift.
+//!
+//! Requirements: RL-CORE (docs/requirements.md).
 #![allow(missing_docs)]
 
 use core::mem::size_of;
 use reactionless::{Basis, Frames, Outcome, Planner, Robot, Rollout, Task, TimeLaw};
 
+/// `size_of` of Task<7, 4>, Rollout<7, 4> and Planner<7, 4, 64> equal the README's x86-64
+/// figures.
+/// Verifies RL-CORE-005.
 #[test]
 fn documented_sizes_for_the_reference_robot() {
     let sizes = [

@@ -1,5 +1,7 @@
 //! Fuzz target: arbitrary text through host-sim's URDF loader and task-file parser, and the
 //! two together into a core task. Must never panic: bad input is an error message.
+//!
+//! Verifies RL-ROB-014.
 #![no_main]
 
 use host_sim::taskfile::{TaskFile, from_texts};

@@ -2,6 +2,8 @@
 //! an arbitrary budget slicing, a perturbed start and an optional violation cap. Must never
 //! panic; a finished rollout has finite outputs and respects |q̇| ≤ q̇_max; an abandoned one
 //! reports a finite Φ above its cap; failures are typed errors.
+//!
+//! Verifies RL-LAW-005, RL-ROLL-007, RL-CORE-006, RL-ROB-004, RL-ROB-005.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

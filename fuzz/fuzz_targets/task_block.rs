@@ -4,6 +4,8 @@
 //!
 //! Each input is tried twice: as is (the CRC rejects almost every mutation) and with its
 //! header and CRC repaired, so the fuzzer also reaches field validation and planning.
+//!
+//! Verifies RL-CORE-006, RL-BLOCK-003, RL-BLOCK-004, RL-BLOCK-005, RL-ROB-008.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

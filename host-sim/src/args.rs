@@ -134,6 +134,9 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
 
+    /// Seed lists: seeds, comma lists and inclusive ranges (`1..10`, `1..=3`); empty, bad,
+    /// repeated or huge ones named.
+    /// Verifies RL-SIM-CLI-008.
     #[test]
     fn seed_lists_take_single_seeds_lists_and_ranges() {
         assert_eq!(parse_seeds("3"), Ok(vec![3]));

@@ -36,6 +36,9 @@ pub fn max(v: &[f64]) -> f64 {
 mod tests {
     use super::*;
 
+    /// Median (mean of the middle two for an even count) and nearest-rank percentiles of
+    /// unsorted values.
+    /// Verifies RL-SIM-CAMP-002.
     #[test]
     fn median_and_percentiles_by_nearest_rank() {
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);

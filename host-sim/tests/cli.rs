@@ -1,5 +1,9 @@
-//! End-to-end tests of the `host-sim` binary (REQ: issue 2, "host-sim: first two
-//! subcommands"): outputs, argument forms, exit codes, and nothing written on bad input.
+//! End-to-end tests of the `host-sim` binary (model, rollout, plan, bench): outputs,
+//! argument forms, exit codes, and nothing written on bad input.
+//!
+//! Requirements: RL-SIM-CLI, RL-SIM-TASK, RL-SIM-OUT, RL-SIM-BENCH, RL-ROB, and through
+//! host-sim RL-MOM, RL-RNS, RL-LAW, RL-TRUTH, RL-PSO, RL-PLAN, RL-REF, RL-GOLD, RL-CORE
+//! (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 use assert_cmd::Command;
@@ -34,6 +38,9 @@ fn task_with(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
     path
 }
 
+/// `model` at q₀ prints one JSON object with the spec §8 values, for `--q-deg -90,…` and
+/// `--q-deg=-90,…`.
+/// Verifies RL-MOM-004, RL-RNS-002, RL-GOLD-001, RL-SIM-CLI-002, RL-SIM-CLI-003.
 #[test]
 fn model_prints_the_spec_golden_values_with_both_list_syntaxes() {
     for args in [vec!["--q-deg", Q0], vec![&*format!("--q-deg={Q0}")]] {
@@ -70,6 +77,9 @@ fn model_prints_the_spec_golden_values_with_both_list_syntaxes() {
     }
 }
 
+/// A token that is not a number, a list of the wrong length and a missing URDF: named, exit
+/// 2.
+/// Verifies RL-SIM-CLI-002, RL-ROB-010.
 #[test]
 fn model_rejects_bad_lists_with_exit_code_2() {
     let urdf = root().join("spec/chaser7.urdf");
@@ -101,6 +111,9 @@ fn floats(line: &str) -> Vec<f64> {
     line.split(',').map(|x| x.parse().unwrap()).collect()
 }
 
+/// `rollout` of η̂ writes the core's bits to trajectory.csv and the spec §8 values to
+/// summary.json; reruns replace it.
+/// Verifies RL-LAW-002, RL-TRUTH-002, RL-TRUTH-004, RL-GOLD-002, RL-GOLD-004, RL-GOLD-005, RL-GOLD-006, RL-CORE-010, RL-SIM-CLI-004, RL-SIM-OUT-001, RL-SIM-OUT-002.
 #[test]
 fn rollout_writes_trajectory_and_summary() {
     let tmp = tempfile::tempdir().unwrap();
@@ -219,6 +232,9 @@ fn rejects(edit: impl Fn(String) -> String, eta: &str, want: &[&str]) {
     assert_eq!(leftovers.len(), 1, "stray files: {leftovers:?}");
 }
 
+/// Every bad task-file value, key, URDF or `--eta` is one message naming it, exit 2,
+/// nothing written.
+/// Verifies RL-LAW-006, RL-LAW-007, RL-SIM-CLI-001, RL-SIM-TASK-001, RL-SIM-OUT-001, RL-ROB-004, RL-ROB-009, RL-ROB-010, RL-ROB-011, RL-ROB-012.
 #[test]
 fn bad_task_files_are_named_and_write_nothing() {
     let id = |s: String| s;
@@ -323,6 +339,30 @@ fn bad_task_files_are_named_and_write_nothing() {
     rejects(id, "0,0,0,0,0,0,0,0", &["all zeros"]);
 }
 
+/// A `[check] max_base_disturbance_deg` that is not a finite number > 0 (zero, negative,
+/// NaN, ∞) is named with its value, exit code 2, and nothing is written.
+/// Verifies RL-SIM-OUT-001, RL-ROB-015.
+#[test]
+fn a_bad_disturbance_threshold_is_named_and_writes_nothing() {
+    for (value, shown) in [
+        ("0.0", "= 0 "),
+        ("-0.01", "= -0.01 "),
+        ("nan", "= NaN "),
+        ("inf", "= inf "),
+    ] {
+        rejects(
+            |s| format!("{s}\n[check]\nmax_base_disturbance_deg = {value}\n"),
+            ETA_HAT,
+            &[
+                &format!("[check] max_base_disturbance_deg {shown}"),
+                "must be a finite number > 0",
+            ],
+        );
+    }
+}
+
+/// An `--out` directory without host-sim's marker is refused (exit 2) and left as it was.
+/// Verifies RL-SIM-OUT-001.
 #[test]
 fn a_foreign_output_directory_is_never_replaced() {
     let tmp = tempfile::tempdir().unwrap();
@@ -344,12 +384,15 @@ fn a_foreign_output_directory_is_never_replaced() {
     );
 }
 
-// --- plan and bench (REQ: issue 3, host-sim) ------------------------------------------
+// --- plan and bench -------------------------------------------------------------------
 
 fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// `plan --seed 2 --refine-tolerance 1e-6` converges, refines, writes plan.json and the
+/// plan's trajectory; one report line.
+/// Verifies RL-PSO-007, RL-PLAN-004, RL-PLAN-005, RL-PLAN-008, RL-REF-001, RL-REF-004, RL-GOLD-007, RL-SIM-CLI-005, RL-SIM-CLI-006.
 #[test]
 fn plan_converges_writes_everything_and_refines() {
     let tmp = tempfile::tempdir().unwrap();
@@ -415,6 +458,9 @@ fn plan_converges_writes_everything_and_refines() {
     assert_eq!(csv.lines().count(), 3002);
 }
 
+/// A plan that cannot converge within m_max = 1 exits 1 and still writes plan.json (80
+/// rollouts).
+/// Verifies RL-PSO-008, RL-SIM-CLI-001, RL-SIM-CLI-005.
 #[test]
 fn plan_that_does_not_converge_exits_1_and_still_reports() {
     let tmp = tempfile::tempdir().unwrap();
@@ -462,6 +508,9 @@ fn plan_rejects(edit: impl Fn(String) -> String, want: &[&str]) {
     assert!(!out.exists());
 }
 
+/// Bad `[planner]` settings are reported as `[planner] key = value` with the reason, exit
+/// 2, nothing written.
+/// Verifies RL-SIM-TASK-004, RL-ROB-013.
 #[test]
 fn bad_planner_settings_are_named() {
     plan_rejects(
@@ -503,6 +552,9 @@ fn bad_planner_settings_are_named() {
     );
 }
 
+/// `bench --json` prints one JSON object of positive timings, with 10 of seeds 1…10
+/// converged.
+/// Verifies RL-GOLD-007, RL-SIM-BENCH-001.
 #[test]
 fn bench_prints_one_json_object() {
     let o = host_sim()
@@ -527,6 +579,7 @@ fn bench_prints_one_json_object() {
 }
 
 /// URDF problems reach the user through the task file, named, with exit code 2.
+/// Verifies RL-SIM-TASK-002, RL-ROB-010, RL-ROB-011.
 #[test]
 fn bad_robot_files_are_named_through_the_task() {
     let tmp = tempfile::tempdir().unwrap();

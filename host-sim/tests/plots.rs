@@ -1,6 +1,8 @@
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 //! `host_sim::plots::write_plots`: every figure as PNG and SVG, with the expected sizes and
 //! labels; bad input is an error and writes nothing.
+//!
+//! Requirements: RL-SIM-PLOT (docs/requirements.md).
 
 use host_sim::plots::{PlotData, write_plots};
 use std::path::Path;
@@ -104,6 +106,9 @@ fn check(dir: &Path, written: &[String], figures: &[(&str, (u32, u32), &[&str])]
     assert_eq!(on_disk, expected);
 }
 
+/// With a C-PSO history all five figures are written, PNG and SVG, at their sizes and
+/// labelled, nothing else.
+/// Verifies RL-SIM-PLOT-001.
 #[test]
 fn writes_all_figures_with_history() {
     let dir = tempfile::tempdir().unwrap();
@@ -111,6 +116,8 @@ fn writes_all_figures_with_history() {
     check(dir.path(), &written, &FIGURES);
 }
 
+/// Without a history the convergence figure is left out and the other four are written.
+/// Verifies RL-SIM-PLOT-001.
 #[test]
 fn skips_convergence_without_history() {
     let dir = tempfile::tempdir().unwrap();
@@ -118,6 +125,9 @@ fn skips_convergence_without_history() {
     check(dir.path(), &written, &FIGURES[..4]);
 }
 
+/// NaN and infinite samples, limits and history entries are left out; every figure is still
+/// written.
+/// Verifies RL-SIM-PLOT-002.
 #[test]
 fn non_finite_samples_are_skipped() {
     let mut d = data(true);
@@ -136,6 +146,8 @@ fn non_finite_samples_are_skipped() {
     check(dir.path(), &written, &FIGURES);
 }
 
+/// One sample, constant values and a single generation still plot.
+/// Verifies RL-SIM-PLOT-002.
 #[test]
 fn degenerate_ranges_still_plot() {
     // One sample, constant everything, a single generation.
@@ -151,6 +163,9 @@ fn degenerate_ranges_still_plot() {
     write_plots(dir.path(), &d).unwrap();
 }
 
+/// Empty or mismatched data, no joints, a bad history or nothing finite: an exit-2 error,
+/// nothing written.
+/// Verifies RL-SIM-PLOT-003.
 #[test]
 fn bad_input_is_an_error_and_writes_nothing() {
     let cases: Vec<(&str, PlotData)> = vec![
@@ -208,6 +223,8 @@ fn bad_input_is_an_error_and_writes_nothing() {
     }
 }
 
+/// A missing output directory is an exit-2 error.
+/// Verifies RL-SIM-PLOT-003.
 #[test]
 fn missing_directory_is_an_error() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,5 +1,7 @@
 //! The shape of host-sim that keeps it cheap to extend: subcommands are leaves, and every
 //! planner setting names its task-file key.
+//!
+//! Requirements: RL-SIM-CLI, RL-SIM-TASK (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
     clippy::indexing_slicing,
@@ -11,6 +13,7 @@ use reactionless::{Error, Param, PlannerConfig};
 use std::path::Path;
 
 /// No `cmd/` file imports another: shared pieces live in named modules.
+/// Verifies RL-SIM-CLI-007.
 #[test]
 fn subcommands_are_leaves() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/cmd");
@@ -38,6 +41,7 @@ fn subcommands_are_leaves() {
 
 /// Every setting the planner validates names a key that the task file's `[planner]` table
 /// really has (the serialized defaults), so errors point at the right key.
+/// Verifies RL-SIM-TASK-004.
 #[test]
 fn every_planner_setting_has_a_task_key() {
     let table = toml::Value::try_from(PlannerConfig::default()).unwrap();

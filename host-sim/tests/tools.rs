@@ -1,5 +1,9 @@
-//! End-to-end tests of check, record/replay, plots, generate, frames and campaign
-//! (REQ: issue 4), failures included. Exit codes: 0 ok, 1 failed/not converged, 2 bad input.
+//! End-to-end tests of check, record/replay, plots, generate, frames, campaign and target,
+//! failures included. Exit codes: 0 ok, 1 failed/not converged, 2 bad input.
+//!
+//! Requirements: RL-SIM-CLI, RL-SIM-TASK, RL-SIM-OUT, RL-SIM-CHK, RL-SIM-REC, RL-SIM-GEN,
+//! RL-SIM-CAMP, RL-SIM-FRM, RL-SIM-PLOT, RL-FW, RL-BLOCK, RL-ROB, and through host-sim
+//! RL-ROLL, RL-TRUTH, RL-PSO, RL-PLAN, RL-GOLD, RL-PROP, RL-CORE (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 use assert_cmd::Command;
@@ -39,6 +43,9 @@ fn run(args: &[&str], paths: &[&Path]) -> (Option<i32>, String, String) {
 
 // --- check -------------------------------------------------------------------------
 
+/// `check` passes a plan (0), fails one edited digit naming row and column (1), rejects a
+/// non-output (2).
+/// Verifies RL-ROLL-001, RL-SIM-CLI-001, RL-SIM-OUT-003, RL-SIM-CHK-001, RL-SIM-CHK-002, RL-SIM-CHK-003.
 #[test]
 fn check_passes_a_plan_and_fails_a_hand_edited_trajectory() {
     let tmp = tempfile::tempdir().unwrap();
@@ -86,6 +93,9 @@ fn check_passes_a_plan_and_fails_a_hand_edited_trajectory() {
     assert!(err.contains("task.toml"), "{err}");
 }
 
+/// A stricter `[check] max_base_disturbance_deg` in the bundle makes `check` fail the same
+/// trajectory (exit 1).
+/// Verifies RL-SIM-OUT-003, RL-SIM-CHK-004.
 #[test]
 fn check_fails_a_trajectory_that_breaks_a_limit_or_the_disturbance_threshold() {
     let tmp = tempfile::tempdir().unwrap();
@@ -113,6 +123,8 @@ fn check_fails_a_trajectory_that_breaks_a_limit_or_the_disturbance_threshold() {
 
 // --- record / replay -----------------------------------------------------------------
 
+/// Every golden record in tests/records replays bit for bit.
+/// Verifies RL-PSO-010, RL-PLAN-004, RL-CORE-008, RL-SIM-REC-003.
 #[test]
 fn golden_records_replay_bit_for_bit() {
     let mut records: Vec<PathBuf> = std::fs::read_dir(root().join("tests/records"))
@@ -130,6 +142,9 @@ fn golden_records_replay_bit_for_bit() {
     assert_eq!(err.matches("identical").count(), records.len(), "{err}");
 }
 
+/// `record` writes a record that replays; a changed η bit, digest or URDF is named (exit
+/// 1), a non-record exits 2.
+/// Verifies RL-SIM-CLI-001, RL-SIM-TASK-002, RL-SIM-REC-001, RL-SIM-REC-002.
 #[test]
 fn a_changed_record_or_robot_fails_replay_naming_the_quantity() {
     let tmp = tempfile::tempdir().unwrap();
@@ -196,6 +211,9 @@ fn a_changed_record_or_robot_fails_replay_naming_the_quantity() {
 
 // --- plots --------------------------------------------------------------------------
 
+/// `plan --plots` writes all five figures, `rollout --plots` all but convergence; the
+/// rollout output checks.
+/// Verifies RL-SIM-CHK-001, RL-SIM-PLOT-001.
 #[test]
 fn plots_on_plan_and_rollout() {
     let tmp = tempfile::tempdir().unwrap();
@@ -249,6 +267,9 @@ fn plots_on_plan_and_rollout() {
 
 // --- generate -----------------------------------------------------------------------
 
+/// `generate` repeats itself; its targets are reached (truth_f < 1e-12) and planned; bad
+/// input writes nothing.
+/// Verifies RL-TRUTH-004, RL-PROP-001, RL-SIM-GEN-001, RL-SIM-GEN-002, RL-ROB-012.
 #[test]
 fn generate_writes_reachable_tasks_deterministically() {
     let tmp = tempfile::tempdir().unwrap();
@@ -340,6 +361,9 @@ fn generate_writes_reachable_tasks_deterministically() {
 
 // --- frames -------------------------------------------------------------------------
 
+/// `frames --frame-budget 2000 --json` stays within 2000 steps per frame and converges;
+/// budget 0 exits 2.
+/// Verifies RL-PLAN-001, RL-SIM-FRM-001.
 #[test]
 fn frames_respects_the_budget_and_reports_json() {
     let (code, out, err) = run(
@@ -358,6 +382,9 @@ fn frames_respects_the_budget_and_reports_json() {
 
 // --- campaign -----------------------------------------------------------------------
 
+/// `campaign` writes the same runs.csv (wall time aside) on 1 and 2 jobs, and a summary; an
+/// empty seed range exits 2.
+/// Verifies RL-SIM-CLI-008, RL-SIM-CAMP-001.
 #[test]
 fn campaign_is_the_same_for_any_number_of_jobs() {
     let tmp = tempfile::tempdir().unwrap();
@@ -395,6 +422,9 @@ fn campaign_is_the_same_for_any_number_of_jobs() {
     assert_eq!(code, Some(2), "{err}");
 }
 
+/// A task path with a comma is quoted in runs.csv: the row reads back with every column and
+/// the path as given.
+/// Verifies RL-SIM-CAMP-003.
 #[test]
 fn campaign_quotes_a_task_path_with_a_comma() {
     let tmp = tempfile::tempdir().unwrap();
@@ -422,6 +452,8 @@ fn campaign_quotes_a_task_path_with_a_comma() {
 
 // --- target (the QEMU run itself is in .ci/run; here what needs no emulator) -------------
 
+/// `target` refuses a 6-joint task for the 7-joint image, naming both counts (exit 2).
+/// Verifies RL-FW-007.
 #[test]
 fn target_rejects_a_robot_the_flight_image_is_not_built_for() {
     let (code, _, err) = run(&["target", "{}", "--no-build"], &[&arm6()]);
@@ -432,6 +464,9 @@ fn target_rejects_a_robot_the_flight_image_is_not_built_for() {
     );
 }
 
+/// paper.toml's task block decodes to CHASER7, q₀ and the defaults; `load_into` builds the
+/// task host-sim builds.
+/// Verifies RL-PLAN-007, RL-GOLD-006, RL-CORE-010, RL-BLOCK-001, RL-BLOCK-005, RL-SIM-TASK-003.
 #[test]
 fn task_blocks_round_trip_through_the_core() {
     // What host-sim sends to the target decodes to the same task, bit for bit.

@@ -1,9 +1,12 @@
-//! URDF loading (REQ: issue 2, "host-sim loads any serial chain of revolute joints").
+//! URDF loading: host-sim loads any serial chain of revolute joints.
 //!
 //! The reference is the raw URDF tree, every link included (fixed ones too), walked with
 //! nalgebra isometries: mass, CoM, H~b and H~bm (by central differences of link velocities)
 //! must match the core running on the extracted chain, which proves the composition of
 //! fixed joints and the merging of rigid attachments.
+//!
+//! Requirements: RL-SIM-URDF, RL-SIM-TASK, RL-ROB, and through host-sim RL-MODEL, RL-MOM
+//! (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
 
 use host_sim::urdf::{Chain, parse};
@@ -16,6 +19,9 @@ fn read(name: &str) -> String {
     std::fs::read_to_string(format!("{root}/{name}")).unwrap()
 }
 
+/// spec/chaser7.urdf loads to the bits of CHASER7, the end effector named or found as the
+/// only leaf.
+/// Verifies RL-MODEL-003, RL-SIM-TASK-003, RL-SIM-URDF-002.
 #[test]
 fn chaser7_urdf_loads_to_the_bits_of_the_const() {
     let chain = parse(&read("spec/chaser7.urdf"), Some("ee")).unwrap();
@@ -152,6 +158,9 @@ fn compare<const N: usize>(robot: &urdf_rs::Robot, chain: &Chain, q: &[f64; N]) 
     worst
 }
 
+/// Fixed joints and attachments composed and merged: mass, CoM, H~b, H~bm, end pose match
+/// the raw URDF tree.
+/// Verifies RL-MODEL-002, RL-MOM-001, RL-SIM-URDF-001.
 #[test]
 fn fixed_joints_and_attachments_are_composed_and_merged_exactly() {
     for (file, n) in [
@@ -186,6 +195,9 @@ fn err(text: &str, ee: Option<&str>) -> String {
     parse(text, ee).unwrap_err()
 }
 
+/// Each unsupported URDF (not XML, non-revolute, branching, several roots, massless, …) is
+/// named by link or joint.
+/// Verifies RL-ROB-011.
 #[test]
 fn unsupported_urdf_is_named() {
     let e = err("this is not xml", None);
@@ -261,6 +273,8 @@ fn unsupported_urdf_is_named() {
     assert!(e.contains("several root links"), "{e}");
 }
 
+/// The core's robot validation errors are reported with the URDF's link and joint names.
+/// Verifies RL-ROB-001, RL-ROB-011.
 #[test]
 fn core_validation_errors_are_explained_with_urdf_names() {
     let text = chaser_with(|s| s.replace(r#"<axis xyz="0 0 1"/>"#, r#"<axis xyz="0 0 0"/>"#));

@@ -123,7 +123,7 @@ mod tests {
 
     /// The generator's stream is not the planner's: planning a generated task with the
     /// same seed cannot start at the generating η. Its first value is pinned as well.
-    /// Verifies RL-PSO-010.
+    /// Verifies RL-PSO-010, RL-SIM-GEN-003.
     #[test]
     fn purposes_have_their_own_streams() {
         let mut planner = Stream::for_purpose(1, Purpose::Planner);

@@ -227,6 +227,7 @@ mod tests {
     /// Spec §11: with the arm at rest and momentum `L`, the base turns at
     /// `ω = H~b⁻¹ R₀ᵀ L`; over a short time the angle is `|H~b⁻¹ L| t` to first order, and
     /// the integrated attitude keeps `R₀ H~b ω = L`.
+    /// Verifies RL-TRUTH-005.
     #[test]
     fn a_base_rate_at_rest_turns_the_base_at_hb_inverse_l() {
         let task = paper_task().unwrap();

@@ -6,20 +6,33 @@
 # this script, then review `git diff tests/records/`: say in the commit message which
 # quantities moved and why. Never re-bless to silence an unexplained mismatch.
 #
-# Each line: record name, task file, seed, refinement tolerance ("-" for none).
+#   scripts/bless-records.sh                 # every record
+#   scripts/bless-records.sh paper arm12-ms  # only these
+#
+# Each line: record name, task file, seed, refinement tolerance ("-" for none), strategy,
+# what refinement drives (planner or truth).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
 H=target/release/host-sim
-while read -r name task seed refine; do
+want=" $* "
+while read -r name task seed refine strategy against; do
   [ -z "$name" ] && continue
-  args=(record "$task" --seed "$seed" --out "tests/records/$name.json")
+  if [ $# -gt 0 ] && [[ "$want" != *" $name "* ]]; then continue; fi
+  args=(record "$task" --seed "$seed" --strategy "$strategy" --refine-against "$against"
+        --out "tests/records/$name.json")
   [ "$refine" != "-" ] && args+=(--refine-tolerance "$refine")
   "$H" "${args[@]}"
 done <<'LIST'
-paper             spec/tasks/paper.toml              1  1e-6
-chaser7-task002   tests/records/tasks/chaser7/task_002.toml  5  -
-chaser7-task003   tests/records/tasks/chaser7/task_003.toml  5  1e-6
-arm6-task001      tests/records/tasks/arm6/task_001.toml     1  1e-6
-arm9-task002      tests/records/tasks/arm9/task_002.toml     2  -
+paper             spec/tasks/paper.toml                      1  1e-6  cpso        planner
+chaser7-task002   tests/records/tasks/chaser7/task_002.toml  5  -     cpso        planner
+chaser7-task003   tests/records/tasks/chaser7/task_003.toml  5  1e-6  cpso        planner
+arm6-task001      tests/records/tasks/arm6/task_001.toml     1  1e-6  cpso        planner
+arm9-task002      tests/records/tasks/arm9/task_002.toml     2  -     cpso        planner
+paper-ms          spec/tasks/paper.toml                      1  1e-9  multistart  planner
+paper-ms-truth    spec/tasks/paper.toml                      2  1e-9  multistart  truth
+chaser7-a005-ms   tests/tasks/a/chaser7/task_005.toml        3  -     multistart  planner
+arm9-a007-ms      tests/tasks/a/arm9/task_007.toml           1  1e-9  multistart  planner
+arm12-a003-ms     tests/tasks/a/arm12/task_003.toml          4  -     multistart  planner
+arm6-a010-ms      tests/tasks/a/arm6/task_010.toml           5  1e-9  multistart  truth
 LIST

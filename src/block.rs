@@ -12,7 +12,7 @@
 //!
 //! | bytes | field |
 //! |---|---|
-//! | 8 | magic `RLTASK01` |
+//! | 8 | magic `RLTASK02` |
 //! | 4 | `N` (u32) |
 //! | 4 | total length in bytes, checksum included (u32) |
 //! | 13·8 | base: mass, inertial xyz, inertial rpy, ixx ixy ixz iyy iyz izz |
@@ -28,17 +28,18 @@
 //! | 4 + 3·8 | stagnation window (u32); min_relative_improvement, eps1, eps2 |
 //! | 4 + 8 + 4 | refine flag (u32, 0 or 1), refine tolerance, refine max rollouts (u32) |
 //! | 4 | frame budget (u32, integration steps per call of `step`) |
+//! | 4 + 4 + 4 | strategy (u32: 0 multistart, 1 cpso), max_rollouts (u32), refine_against (u32: 0 planner, 1 truth) |
 //! | 4 | CRC-32 of everything above |
 
-use crate::config::{PlannerConfig, StagnationConfig};
+use crate::config::{PlannerConfig, RefineAgainst, StagnationConfig, Strategy};
 use crate::error::{BlockFault, Error};
 use crate::geometry::Pose;
 use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
 use crate::planner::Planner;
 use crate::trajectory::Motion;
 
-/// The block's magic bytes.
-pub const MAGIC: [u8; 8] = *b"RLTASK01";
+/// The block's magic bytes (`01` had no strategy, budget or refinement target).
+pub const MAGIC: [u8; 8] = *b"RLTASK02";
 
 /// Size in bytes of a block for `n` joints.
 #[must_use]
@@ -64,6 +65,7 @@ pub const fn block_len(n: usize) -> usize {
         + 4
         + 4
         + 4
+        + 3 * 4
 }
 
 /// Everything the flight image needs to plan one task.
@@ -269,6 +271,15 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     w.f64(tol);
     w.u32(p.refine_max_rollouts);
     w.u32(p.frame_budget);
+    w.u32(match p.strategy {
+        Strategy::Multistart => 0,
+        Strategy::Cpso => 1,
+    });
+    w.u32(p.max_rollouts);
+    w.u32(match p.refine_against {
+        RefineAgainst::Planner => 0,
+        RefineAgainst::Truth => 1,
+    });
     let crc = crc32(w.out.get(..w.at).unwrap_or(&[]));
     w.u32(crc);
     if w.overflow || w.at != len {
@@ -355,6 +366,17 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let refine_tolerance = r.f64()?;
     let refine_rollouts = r.u32()?;
     let frame_budget = r.u32()?;
+    let strategy = match r.u32()? {
+        0 => Strategy::Multistart,
+        1 => Strategy::Cpso,
+        _ => return Err(Error::Block(BlockFault::Field)),
+    };
+    let max_rollouts = r.u32()?;
+    let refine_against = match r.u32()? {
+        0 => RefineAgainst::Planner,
+        1 => RefineAgainst::Truth,
+        _ => return Err(Error::Block(BlockFault::Field)),
+    };
     let refine_tolerance = match flag {
         0 => None,
         1 => Some(refine_tolerance),
@@ -373,6 +395,8 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         dt_s,
         n,
         planner: PlannerConfig {
+            strategy,
+            max_rollouts,
             particles,
             max_iterations,
             c1,
@@ -384,6 +408,7 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
             seed,
             refine_tolerance,
             refine_max_rollouts: refine_rollouts,
+            refine_against,
             frame_budget,
             stagnation: StagnationConfig {
                 window,

@@ -25,7 +25,14 @@ pub const MAX_WINDOW: usize = 64;
     serde(deny_unknown_fields, default)
 )]
 pub struct PlannerConfig {
-    /// Swarm size T, `1..=P` (the planner's capacity).
+    /// How η is searched: [`Strategy::Multistart`] (the default) or the paper's
+    /// [`Strategy::Cpso`].
+    pub strategy: Strategy,
+    /// The total budget in rollouts, search and refinement together (≥ 1; default 8,040,
+    /// the paper's worst case of 40 × 201). A plan that has not met its tolerance when it is
+    /// spent ends [`crate::Stop::Exhausted`].
+    pub max_rollouts: u32,
+    /// Swarm size T, `1..=P` (the planner's capacity; C-PSO only).
     pub particles: u32,
     /// m_max ≥ 1: generations after the initial one.
     pub max_iterations: u32,
@@ -46,13 +53,82 @@ pub struct PlannerConfig {
     pub seed: u64,
     /// Refine after success until `f ≤ refine_tolerance` (> 0); `None`: no refinement.
     pub refine_tolerance: Option<f64>,
-    /// Most rollouts refinement may spend (≥ 1).
+    /// Most rollouts refinement may spend (≥ 1; C-PSO's refinement and the refinement
+    /// against the truth model).
     pub refine_max_rollouts: u32,
+    /// Which end pose refinement drives below `refine_tolerance`: the planner model's
+    /// ([`RefineAgainst::Planner`], f) or the truth model's ([`RefineAgainst::Truth`],
+    /// `truth_f`, spec §11).
+    pub refine_against: RefineAgainst,
     /// Integration steps the flight software gives [`crate::Planner::step`] per frame
     /// (≥ 1). The planner does not read it; the task block carries it to the driver.
     pub frame_budget: u32,
     /// The stagnation alarm (`[planner.stagnation]`).
     pub stagnation: StagnationConfig,
+}
+
+/// How the planner searches η (`[planner] strategy`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(rename_all = "lowercase")
+)]
+pub enum Strategy {
+    /// Multistart Levenberg–Marquardt on the unit sphere of η ([`crate::multistart`]): the
+    /// default.
+    Multistart,
+    /// The paper's constrained PSO (spec §7, [`crate::cpso`]), then the optional
+    /// refinement ([`crate::refine`]).
+    Cpso,
+}
+
+impl Strategy {
+    /// The task-file name (`"multistart"`, `"cpso"`).
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        match self {
+            Strategy::Multistart => "multistart",
+            Strategy::Cpso => "cpso",
+        }
+    }
+
+    /// The strategy of a task-file name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "multistart" => Some(Strategy::Multistart),
+            "cpso" => Some(Strategy::Cpso),
+            _ => None,
+        }
+    }
+}
+
+/// Which end pose refinement drives (`[planner] refine_against`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(rename_all = "lowercase")
+)]
+pub enum RefineAgainst {
+    /// The planner model's end pose (base attitude identity): f.
+    Planner,
+    /// The truth model's (the base drift integrated, spec §11): `truth_f`.
+    Truth,
+}
+
+impl RefineAgainst {
+    /// The task-file name (`"planner"`, `"truth"`).
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        match self {
+            RefineAgainst::Planner => "planner",
+            RefineAgainst::Truth => "truth",
+        }
+    }
 }
 
 /// The stagnation alarm of paper §5.2 (`[planner.stagnation]`).
@@ -75,9 +151,10 @@ pub struct StagnationConfig {
 }
 
 impl Default for PlannerConfig {
-    /// [`PlannerConfig::reference`] with seed 1.
+    /// [`PlannerConfig::default_with_seed`] with seed 1: what a task file without a
+    /// `[planner]` table plans with.
     fn default() -> Self {
-        Self::reference(1)
+        Self::default_with_seed(1)
     }
 }
 
@@ -99,12 +176,24 @@ impl StagnationConfig {
 }
 
 impl PlannerConfig {
-    /// The spec §7 settings: 40 particles, m_max = 200, c1 = c2 = 1.49618, ω 0.9 → 0.4,
-    /// σ_e = 0.05, B = 5, no refinement (400 rollouts if enabled), the reference alarm,
-    /// and a frame budget of 3000 integration steps (one reference rollout).
+    /// The default settings: the multistart strategy with a budget of 8,040 rollouts, and
+    /// the spec §7 values for everything C-PSO reads ([`PlannerConfig::reference`]).
+    #[must_use]
+    pub const fn default_with_seed(seed: u64) -> Self {
+        let mut c = Self::reference(seed);
+        c.strategy = Strategy::Multistart;
+        c
+    }
+
+    /// The spec §7 settings, the paper's C-PSO: 40 particles, m_max = 200, c1 = c2 =
+    /// 1.49618, ω 0.9 → 0.4, σ_e = 0.05, B = 5, no refinement (400 rollouts if enabled,
+    /// against the planner model), the reference alarm, a total budget of 8,040 rollouts and
+    /// a frame budget of 3000 integration steps (one reference rollout).
     #[must_use]
     pub const fn reference(seed: u64) -> Self {
         Self {
+            strategy: Strategy::Cpso,
+            max_rollouts: 8040,
             particles: 40,
             max_iterations: 200,
             c1: 1.49618,
@@ -116,12 +205,13 @@ impl PlannerConfig {
             seed,
             refine_tolerance: None,
             refine_max_rollouts: 400,
+            refine_against: RefineAgainst::Planner,
             frame_budget: 3000,
             stagnation: StagnationConfig::REFERENCE,
         }
     }
 
-    /// Checks every setting against a capacity of `capacity` particles.
+    /// Checks every setting against a capacity of `capacity` particles (C-PSO).
     ///
     /// # Errors
     /// The first bad setting, named by its [`Param`] (whose [`Param::key`] is the task
@@ -140,7 +230,8 @@ impl PlannerConfig {
         if self.particles == 0 {
             return Err(Error::NotPositive(Param::Particles));
         }
-        if self.particles as usize > capacity {
+        // The swarm's capacity matters only to C-PSO.
+        if self.strategy == Strategy::Cpso && self.particles as usize > capacity {
             return Err(Error::CapacityExceeded {
                 param: Param::Particles,
                 requested: self.particles,
@@ -198,6 +289,9 @@ impl PlannerConfig {
         }
         if self.frame_budget == 0 {
             return Err(Error::NotPositive(Param::FrameBudget));
+        }
+        if self.max_rollouts == 0 {
+            return Err(Error::NotPositive(Param::MaxRollouts));
         }
         Ok(())
     }

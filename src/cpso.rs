@@ -74,14 +74,8 @@ impl<const K: usize, const P: usize> Cpso<K, P> {
 impl<const N: usize, const K: usize, const P: usize> Optimizer<N, K> for Cpso<K, P> {
     fn candidate(&self) -> Candidate<K> {
         match self.swarm.particle(self.particle) {
-            Some(p) => Candidate {
-                eta: p.position,
-                cap: p.best_cost.phi,
-            },
-            None => Candidate {
-                eta: [[0.0; 2]; K],
-                cap: f64::INFINITY,
-            },
+            Some(p) => Candidate::plain(p.position, p.best_cost.phi),
+            None => Candidate::plain([[0.0; 2]; K], f64::INFINITY),
         }
     }
 

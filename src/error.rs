@@ -82,6 +82,8 @@ pub enum Param {
     RefineRollouts,
     /// Integration steps per [`crate::Planner::step`] call of the flight driver.
     FrameBudget,
+    /// The total rollout budget.
+    MaxRollouts,
 }
 
 impl Param {
@@ -119,6 +121,7 @@ impl Param {
             Param::RefineTolerance => "planner.refine_tolerance",
             Param::RefineRollouts => "planner.refine_max_rollouts",
             Param::FrameBudget => "planner.frame_budget",
+            Param::MaxRollouts => "planner.max_rollouts",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -149,7 +152,7 @@ pub enum RankLoss {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BlockFault {
-    /// The magic bytes are not `RLTASK01`.
+    /// The magic bytes are not the current version's (`block::MAGIC`).
     Magic,
     /// The block is for another joint count.
     JointCount,
@@ -288,6 +291,7 @@ impl fmt::Display for Param {
             Param::RefineTolerance => f.write_str("refine_tolerance"),
             Param::RefineRollouts => f.write_str("refine_max_rollouts"),
             Param::FrameBudget => f.write_str("frame_budget"),
+            Param::MaxRollouts => f.write_str("max_rollouts"),
         }
     }
 }

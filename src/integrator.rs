@@ -48,18 +48,31 @@ pub fn midpoint_substeps<const N: usize, E>(
     m: u32,
     mut f: impl FnMut(&[f64; N], &[f64; N]) -> Result<(), E>,
 ) -> Result<(), E> {
+    for j in 0..m {
+        let (mid, dq) = midpoint_substep(from, to, m, j);
+        f(&mid, &dq)?;
+    }
+    Ok(())
+}
+
+/// Sub-step `j` of [`midpoint_substeps`]: `(q_mid, δq)`, for integrators that are resumed
+/// between sub-steps (the planner's budgeted truth evaluation).
+#[must_use]
+pub fn midpoint_substep<const N: usize>(
+    from: &[f64; N],
+    to: &[f64; N],
+    m: u32,
+    j: u32,
+) -> ([f64; N], [f64; N]) {
     let mf = f64::from(m);
     let mut dq = [0.0; N];
     for ((d, a), b) in dq.iter_mut().zip(from.iter()).zip(to.iter()) {
         *d = (b - a) / mf;
     }
-    for j in 0..m {
-        let frac = (f64::from(j) + 0.5) / mf;
-        let mut mid = *from;
-        for ((x, a), b) in mid.iter_mut().zip(from.iter()).zip(to.iter()) {
-            *x = a + frac * (b - a);
-        }
-        f(&mid, &dq)?;
+    let frac = (f64::from(j) + 0.5) / mf;
+    let mut mid = *from;
+    for ((x, a), b) in mid.iter_mut().zip(from.iter()).zip(to.iter()) {
+        *x = a + frac * (b - a);
     }
-    Ok(())
+    (mid, dq)
 }

@@ -63,6 +63,7 @@ pub mod integrator;
 pub mod kinematics;
 pub mod model;
 pub mod momentum;
+pub mod multistart;
 pub mod nullspace;
 pub mod optimizer;
 pub mod planner;
@@ -75,7 +76,9 @@ pub mod task;
 pub mod trajectory;
 pub mod truth;
 
-pub use config::{MAX_WINDOW, PlannerConfig, RefineConfig, StagnationConfig};
+pub use config::{
+    MAX_WINDOW, PlannerConfig, RefineAgainst, RefineConfig, StagnationConfig, Strategy,
+};
 pub use cpso::Cpso;
 pub use digest::TrajectoryDigest;
 pub use error::{BlockFault, Body, Error, Param, RankLoss};
@@ -84,6 +87,7 @@ pub use geometry::{Pose, PoseError, Sym3};
 pub use kinematics::{Frames, IDENTITY_WXYZ, LinkFrame};
 pub use model::{BodyDesc, CHASER7, Inertia, JointDesc, Origin, Robot, RobotDesc, UNIT_TOLERANCE};
 pub use momentum::{Momentum, generalized_jacobian};
+pub use multistart::{LmConfig, Multistart, MultistartReport};
 pub use nullspace::{Basis, PIVOT_TOLERANCE, RANK_TOLERANCE, conditioning};
 pub use optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 pub use planner::{Plan, Planner, Running, Stage, Status};

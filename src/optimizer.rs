@@ -16,6 +16,7 @@
 //! planner's one stream, at points the optimizer documents (golden records depend on them).
 
 use crate::error::Error;
+use crate::geometry::PoseError;
 use crate::random::Stream;
 use crate::rollout::Outcome;
 use crate::swarm::Cost;
@@ -29,6 +30,22 @@ pub struct Candidate<const K: usize> {
     /// ([`crate::Rollout::with_violation_cap`]) because its result cannot change any
     /// decision of the optimizer; `f64::INFINITY` never stops early.
     pub cap: f64,
+    /// Evaluate the truth model along the rollout too ([`Evaluation::Truth`]): the
+    /// end-pose error with the integrated base attitude (spec §11). Costs about
+    /// `1 + truth sub-steps` times a plain rollout.
+    pub truth: bool,
+}
+
+impl<const K: usize> Candidate<K> {
+    /// A candidate without the truth model.
+    #[must_use]
+    pub const fn plain(eta: [[f64; 2]; K], cap: f64) -> Self {
+        Self {
+            eta,
+            cap,
+            truth: false,
+        }
+    }
 }
 
 /// How the rollout of a candidate ended.
@@ -36,6 +53,9 @@ pub struct Candidate<const K: usize> {
 pub enum Evaluation<const N: usize> {
     /// It finished.
     Finished(Outcome<N>),
+    /// It finished, with the truth model along (the candidate asked for it): the outcome
+    /// and the truth-model end-pose error against the target.
+    Truth(Outcome<N>, PoseError),
     /// It was stopped with Φ of its samples so far (rad, a lower bound of the whole
     /// rollout's Φ) above the candidate's cap.
     Abandoned(f64),
@@ -49,7 +69,7 @@ impl<const N: usize> Evaluation<N> {
     #[must_use]
     pub fn cost(&self) -> Cost {
         match self {
-            Evaluation::Finished(o) => Cost { phi: o.phi, f: o.f },
+            Evaluation::Finished(o) | Evaluation::Truth(o, _) => Cost { phi: o.phi, f: o.f },
             Evaluation::Abandoned(phi) => Cost {
                 phi: *phi,
                 f: f64::INFINITY,
@@ -62,8 +82,17 @@ impl<const N: usize> Evaluation<N> {
     #[must_use]
     pub fn outcome(&self) -> Option<&Outcome<N>> {
         match self {
-            Evaluation::Finished(o) => Some(o),
+            Evaluation::Finished(o) | Evaluation::Truth(o, _) => Some(o),
             Evaluation::Abandoned(_) | Evaluation::Failed(_) => None,
+        }
+    }
+
+    /// The truth-model end-pose error, if it was evaluated.
+    #[must_use]
+    pub fn truth(&self) -> Option<&PoseError> {
+        match self {
+            Evaluation::Truth(_, e) => Some(e),
+            _ => None,
         }
     }
 }
@@ -110,6 +139,13 @@ pub trait Optimizer<const N: usize, const K: usize> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Event {
+    /// A rollout was evaluated (every candidate of every stage).
+    Evaluated {
+        /// Rollouts so far.
+        rollouts: u32,
+        /// The best cost so far (the search's best, then refinement's).
+        best: Cost,
+    },
     /// A generation was evaluated completely.
     Generation {
         /// Its number (0 = initial).

@@ -1,10 +1,14 @@
-//! The planner that flies: a search (C-PSO, spec §7) followed by optional refinement, as
-//! one resumable, budgeted, deterministic state machine.
+//! The planner that flies: a search (the multistart LM by default, or the paper's C-PSO of
+//! spec §7) followed by optional refinement, as one resumable, budgeted, deterministic
+//! state machine.
 //!
 //! Owns [`Planner`] and what it reports ([`Status`], [`Plan`], [`Running`]). The planner
 //! drives [`Optimizer`]s: it asks each for a candidate η, evaluates it with a [`Rollout`]
-//! it keeps between calls, and tells the optimizer how it ended. [`Planner::step`] performs at most `budget` integration steps, so a
-//! flight scheduler can give it a fixed slice of every frame. Driving it with budget 1 per
+//! it keeps between calls, and tells the optimizer how it ended. [`Planner::step`] performs
+//! at most `budget` units of work, so a flight scheduler can give it a fixed slice of every
+//! frame. A unit is one integration step, or one truth-model sub-step when a candidate
+//! asks for the truth model (refinement against the truth: a truth-evaluated step costs
+//! `1 + 10` units). Driving it with budget 1 per
 //! call gives the same bits as driving it with an unlimited budget: the state carried
 //! between calls is exactly the loop state, and every random draw happens at a fixed point
 //! of the sequence (see [`crate::swarm`] for the draw order).
@@ -15,7 +19,13 @@
 //! - per generation boundary: O(T) to select gbest, plus the swarm move (`T·2K` velocity
 //!   updates with `4K` draws per particle, and, after a stagnation alarm, a permutation of
 //!   T);
-//! - per refinement step: a 6×6 Cholesky and O(K) vector work.
+//! - per refinement step: a 6×6 Cholesky and O(K) vector work;
+//! - per multistart rollout: at most an 18×18 Cholesky and O(18²) products (`2K ≤ 18`
+//!   unknowns, `6 + N ≤ 18` residual rows).
+//!
+//! **One total budget**: [`PlannerConfig::max_rollouts`] rollouts, search and refinement
+//! together (default 8,040). When it is spent the plan ends exhausted (or, during
+//! refinement, converged with the refinement stopped by its budget), never later.
 //!
 //! A candidate rejected before integration (non-finite η), or abandoned before its first
 //! step, costs one unit of budget, so every call ends.
@@ -33,21 +43,26 @@
 //! `iterations` is the number of generations after it. A feasible particle with
 //! `f ≤ tolerance` stops C-PSO at once, even in the middle of a generation.
 
-use crate::config::PlannerConfig;
+use crate::config::{PlannerConfig, RefineAgainst, Strategy};
 use crate::cpso::Cpso;
 use crate::error::Error;
-use crate::optimizer::{Evaluation, Next, Observer, Optimizer, Stop};
+use crate::multistart::{LmConfig, Multistart};
+use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
-use crate::refine::{RefineReport, Refiner};
-use crate::rollout::{Outcome, Progress, Rollout};
+use crate::refine::{RefineReport, RefineStop, Refiner};
+use crate::rollout::{Outcome, Progress, Rollout, Sample};
 use crate::swarm::{Cost, Swarm};
 use crate::task::Task;
+use crate::truth::{MIN_SUBSTEPS, TruthState};
+
+/// Truth-model sub-steps per integration step when a candidate asks for the truth model.
+pub const TRUTH_SUBSTEPS: u32 = MIN_SUBSTEPS;
 
 /// Which stage the planner is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Stage {
-    /// The search for a feasible η within σ_e (C-PSO).
+    /// The search for a feasible η within the tolerance (multistart or C-PSO).
     Search,
     /// Levenberg–Marquardt refinement.
     Refine,
@@ -59,10 +74,11 @@ pub enum Stage {
 pub struct Running {
     /// Current stage.
     pub stage: Stage,
-    /// Current generation of C-PSO (0 = initial); during refinement, the one it
-    /// succeeded in.
+    /// C-PSO: the current generation (0 = initial); multistart: accepted LM steps. During
+    /// refinement, the search's value when it succeeded.
     pub iteration: u32,
-    /// Particle being evaluated (0 during refinement).
+    /// C-PSO: the particle being evaluated; multistart: the LM start (0 during
+    /// refinement).
     pub particle: u32,
     /// Rollouts finished so far.
     pub rollouts: u32,
@@ -75,27 +91,34 @@ pub struct Running {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Plan<const N: usize, const K: usize> {
-    /// Why planning stopped: [`Stop::Converged`] (a feasible η with `f ≤ σ_e`, refined if
-    /// configured) or [`Stop::Exhausted`] (m_max generations without success: the best
-    /// feasible η found, or the least violating one if none is feasible).
+    /// Why planning stopped: [`Stop::Converged`] (an evaluated rollout of `eta` is feasible
+    /// with `f ≤ σ_e`, and within the refinement tolerance if refinement reached it) or
+    /// [`Stop::Exhausted`] (the budget is spent: the best η found, feasible first, else the
+    /// least violating).
     pub stop: Stop,
+    /// The strategy that searched.
+    pub strategy: Strategy,
     /// η as pairs `(a_i, b_i)`.
     pub eta: [[f64; 2]; K],
     /// The rollout of `eta`: final configuration, extrema, Φ, end pose, error, f.
     pub outcome: Outcome<N>,
-    /// C-PSO generations after the initial one.
+    /// C-PSO: generations after the initial one; multistart: accepted LM steps.
     pub iterations: u32,
-    /// All rollouts (C-PSO and refinement).
+    /// All rollouts (search and refinement).
     pub rollouts: u32,
-    /// Rollouts spent by C-PSO.
-    pub swarm_rollouts: u32,
+    /// Rollouts spent by the search.
+    pub search_rollouts: u32,
     /// Rollouts (of `rollouts`) stopped early because their violation Φ already ruled
     /// them out ([`Rollout::with_violation_cap`]); they change no decision.
     pub abandoned: u32,
-    /// Stagnation alarms.
+    /// C-PSO's stagnation alarms (0 for the multistart).
     pub stagnation_events: u32,
-    /// f when C-PSO stopped.
-    pub swarm_f: f64,
+    /// The multistart's LM starts after the first (0 for C-PSO).
+    pub restarts: u32,
+    /// Rollouts spent when a feasible rollout first had `f ≤ σ_e`, if one did.
+    pub first_hit: Option<u32>,
+    /// f when the search stopped.
+    pub search_f: f64,
     /// Refinement, if it ran.
     pub refine: Option<RefineReport>,
 }
@@ -139,37 +162,58 @@ enum Record<const N: usize, const K: usize> {
 impl<const N: usize, const K: usize> Record<N, K> {
     /// Folds in the evaluation of `eta`.
     fn fold(self, eta: &[[f64; 2]; K], evaluation: &Evaluation<N>) -> Self {
-        match (self, evaluation) {
-            (Record::Found(_, best), Evaluation::Finished(_))
+        match (self, evaluation.outcome(), evaluation) {
+            (Record::Found(_, best), Some(_), _)
                 if !evaluation.cost().dominates(&cost_of(&best)) =>
             {
                 self
             }
-            (_, Evaluation::Finished(o)) => Record::Found(*eta, *o),
-            (Record::Failed(_), Evaluation::Failed(e)) => Record::Failed(*e),
-            (kept, _) => kept,
+            (_, Some(o), _) => Record::Found(*eta, *o),
+            (Record::Failed(_), None, Evaluation::Failed(e)) => Record::Failed(*e),
+            (kept, ..) => kept,
         }
     }
 }
 
+/// The truth model riding along a rollout: its state, and the samples not yet integrated
+/// (a step emits one, the last step two).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TruthFlight<const N: usize> {
+    state: TruthState<N>,
+    queue: [Option<([f64; N], f64)>; 2],
+}
+
+/// The rollout of the candidate in flight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Flight<const N: usize, const K: usize> {
+    rollout: Rollout<N, K>,
+    truth: Option<TruthFlight<N>>,
+    /// The outcome, once the rollout is done but the truth model still has sub-steps.
+    done: Option<Outcome<N>>,
+}
+
 /// The planner for `N` joints, null-space dimension `K = N − 3` and a swarm capacity of `P`
-/// particles.
+/// particles (C-PSO only).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Planner<const N: usize, const K: usize, const P: usize> {
     task: Task<N, K>,
     config: PlannerConfig,
     stream: Stream,
     cpso: Cpso<K, P>,
+    multistart: Multistart<N, K>,
     phase: Phase<N, K>,
-    rollout: Option<Rollout<N, K>>,
+    flight: Option<Flight<N, K>>,
     /// η of the rollout in flight (or last evaluated).
     eta: [[f64; 2]; K],
     record: Record<N, K>,
     rollouts: u32,
-    swarm_rollouts: u32,
+    search_rollouts: u32,
     abandoned: u32,
-    swarm_f: f64,
-    /// Budget consumed so far (integration steps, plus one per rejected candidate).
+    first_hit: Option<u32>,
+    /// f of the rollout that was the first hit.
+    first_hit_f: f64,
+    search_f: f64,
+    /// Budget consumed so far (units, plus one per rejected candidate).
     spent: u64,
 }
 
@@ -179,21 +223,24 @@ fn cost_of<const N: usize>(o: &Outcome<N>) -> Cost {
 
 impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// A planner without a task, `const`: flight software places it in static memory and
-    /// gives it work with [`Planner::reset`], so the 20-odd KiB of state never pass through
+    /// gives it work with [`Planner::reset`], so the 30-odd KiB of state never pass through
     /// the stack. [`Planner::step`] returns [`Error::NotInitialized`] until then.
     pub const IDLE: Self = Self {
         task: Task::IDLE,
         config: PlannerConfig::reference(0),
         stream: Stream::IDLE,
         cpso: Cpso::IDLE,
+        multistart: Multistart::IDLE,
         phase: Phase::Failed(Error::NotInitialized),
-        rollout: None,
+        flight: None,
         eta: [[0.0; 2]; K],
         record: Record::Failed(Error::NotInitialized),
         rollouts: 0,
-        swarm_rollouts: 0,
+        search_rollouts: 0,
         abandoned: 0,
-        swarm_f: f64::INFINITY,
+        first_hit: None,
+        first_hit_f: f64::INFINITY,
+        search_f: f64::INFINITY,
         spent: 0,
     };
 
@@ -219,18 +266,29 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         &mut self.task
     }
 
+    /// The tolerance the multistart searches to: the refinement tolerance when refinement
+    /// is against the planner model (it refines as it searches), else σ_e.
+    fn search_tolerance(config: &PlannerConfig) -> f64 {
+        match (config.refine_tolerance, config.refine_against) {
+            (Some(r), RefineAgainst::Planner) => r.min(config.tolerance),
+            _ => config.tolerance,
+        }
+    }
+
     /// Starts planning the planner's current task from scratch with `config`, in place.
     ///
     /// # Errors
     /// As [`Planner::reset`].
     pub fn restart(&mut self, config: PlannerConfig) -> Result<(), Error> {
-        self.rollout = None;
+        self.flight = None;
         self.record = Record::Failed(Error::NotInitialized);
         self.eta = [[0.0; 2]; K];
         self.rollouts = 0;
-        self.swarm_rollouts = 0;
+        self.search_rollouts = 0;
         self.abandoned = 0;
-        self.swarm_f = f64::INFINITY;
+        self.first_hit = None;
+        self.first_hit_f = f64::INFINITY;
+        self.search_f = f64::INFINITY;
         self.spent = 0;
         if let Err(e) = config.validate(P) {
             self.phase = Phase::Failed(e);
@@ -238,7 +296,23 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
         self.config = config;
         self.stream = Stream::new(config.seed);
-        if let Err(e) = self.cpso.reset(&config, &mut self.stream) {
+        let started = match config.strategy {
+            Strategy::Cpso => self.cpso.reset(&config, &mut self.stream),
+            Strategy::Multistart => {
+                let lm = LmConfig {
+                    max_rollouts: config.max_rollouts,
+                    sigma_e: config.tolerance,
+                    ..LmConfig::reference()
+                };
+                self.multistart.reset(
+                    &lm,
+                    self.task.robot(),
+                    Self::search_tolerance(&config),
+                    &mut self.stream,
+                )
+            }
+        };
+        if let Err(e) = started {
             self.phase = Phase::Failed(e);
             return Err(e);
         }
@@ -246,12 +320,11 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         Ok(())
     }
 
-    /// A planner for `task`, its swarm at its initial positions.
+    /// A planner for `task`, its search at its start (C-PSO: the swarm at its initial
+    /// positions; multistart: the first screening batch drawn).
     ///
     /// # Errors
     /// A bad setting (see [`PlannerConfig::validate`]).
-    ///
-    /// Verifies RL-PLAN-001, RL-PLAN-008.
     ///
     /// One flight frame gives the planner a slice of work:
     ///
@@ -266,12 +339,14 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// }
     /// ```
     ///
-    /// Planning to the end (≈ 0.4 s optimised for the reference task):
+    /// Planning to the end with the default strategy (≈ 0.05 s optimised for the reference
+    /// task):
     ///
     /// ```no_run
     /// # use reactionless::{Planner, PlannerConfig, Status, reference};
     /// # let task = reference::paper_task().unwrap();
-    /// # let mut planner: Planner<7, 4, 64> = Planner::new(task, PlannerConfig::reference(1)).unwrap();
+    /// let config = PlannerConfig::default_with_seed(1);
+    /// let mut planner: Planner<7, 4, 64> = Planner::new(task, config).unwrap();
     /// let plan = loop {
     ///     if let Status::Finished(plan) = planner.step(100_000, &mut ()).unwrap() {
     ///         break plan;
@@ -297,7 +372,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         &self.config
     }
 
-    /// The swarm (for inspection).
+    /// The swarm (for inspection; C-PSO only).
     #[must_use]
     pub fn swarm(&self) -> &Swarm<K, P> {
         self.cpso.swarm()
@@ -312,14 +387,17 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
     }
 
-    /// Budget consumed so far: integration steps, plus one per candidate rejected before
-    /// integration. Each [`Planner::step`] call adds at most its `budget`.
+    /// Budget consumed so far: units of work (integration steps and truth sub-steps), plus
+    /// one per candidate rejected before integration. Each [`Planner::step`] call adds at
+    /// most its `budget`.
     #[must_use]
     pub fn spent(&self) -> u64 {
         self.spent
     }
 
-    /// Advances by at most `budget` integration steps; reports events to `observer`.
+    /// Advances by at most `budget` units of work (integration steps, and truth-model
+    /// sub-steps for the candidates that ask for the truth model); reports events to
+    /// `observer`.
     ///
     /// # Errors
     /// Only if no rollout at all could be evaluated (every candidate failed): the last
@@ -346,13 +424,20 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 Phase::Failed(e) => return Err(e),
                 Phase::Search | Phase::Refine(_) => {}
             }
-            let mut rollout = match self.rollout.take() {
-                Some(r) => r,
+            let mut flight = match self.flight.take() {
+                Some(f) => f,
                 None => {
-                    let (eta, cap) = self.candidate();
-                    self.eta = eta;
-                    match Rollout::new(&self.task, &eta) {
-                        Ok(r) => r.with_violation_cap(cap),
+                    let c = self.candidate();
+                    self.eta = c.eta;
+                    match Rollout::new(&self.task, &c.eta) {
+                        Ok(r) => Flight {
+                            rollout: r.with_violation_cap(c.cap),
+                            truth: c.truth.then(|| TruthFlight {
+                                state: TruthState::new(TRUTH_SUBSTEPS),
+                                queue: [None, None],
+                            }),
+                            done: None,
+                        },
                         Err(e) => {
                             *left -= 1;
                             self.absorb(Evaluation::Failed(e), observer);
@@ -361,11 +446,49 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                     }
                 }
             };
-            let before = rollout.step();
-            let result = rollout.advance(&self.task, *left, &mut ());
-            *left = left.saturating_sub(rollout.step().saturating_sub(before));
+            if let Some(tf) = flight.truth.as_mut() {
+                // The truth model first catches up with the samples emitted so far.
+                if tf.state.pending() {
+                    *left -= tf.state.integrate(&self.task, *left);
+                    self.flight = Some(flight);
+                    continue;
+                }
+                if let Some(slot) = tf.queue.iter_mut().find(|s| s.is_some()) {
+                    if let Some((q, t)) = slot.take() {
+                        tf.state.begin(&q, t);
+                    }
+                    self.flight = Some(flight);
+                    continue;
+                }
+                if let Some(o) = flight.done {
+                    let evaluation = match (tf.state.error(), tf.state.end_pose(&self.task)) {
+                        (None, Some(end)) => Evaluation::Truth(o, end.error_to(self.task.target())),
+                        (Some(e), _) => Evaluation::Failed(e),
+                        (None, None) => Evaluation::Finished(o),
+                    };
+                    self.absorb(evaluation, observer);
+                    continue;
+                }
+            }
+            let before = flight.rollout.step();
+            let result = match flight.truth.as_mut() {
+                Some(tf) => {
+                    let mut sink = |s: &Sample<N>| {
+                        if let Some(slot) = tf.queue.iter_mut().find(|x| x.is_none()) {
+                            *slot = Some((s.q, s.t));
+                        }
+                    };
+                    flight.rollout.advance(&self.task, 1, &mut sink)
+                }
+                None => flight.rollout.advance(&self.task, *left, &mut ()),
+            };
+            *left = left.saturating_sub(flight.rollout.step().saturating_sub(before));
             match result {
-                Ok(Progress::Running { .. }) => self.rollout = Some(rollout),
+                Ok(Progress::Running { .. }) => self.flight = Some(flight),
+                Ok(Progress::Done(o)) if flight.truth.is_some() => {
+                    flight.done = Some(o);
+                    self.flight = Some(flight);
+                }
                 Ok(Progress::Done(o)) => self.absorb(Evaluation::Finished(o), observer),
                 Ok(Progress::Abandoned { step, phi }) => {
                     if step == 0 {
@@ -386,16 +509,24 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
     }
 
+    /// The search's progress: (iteration, candidate index).
+    fn search_progress(&self) -> (u32, u32) {
+        match self.config.strategy {
+            Strategy::Cpso => Optimizer::<N, K>::progress(&self.cpso),
+            Strategy::Multistart => self.multistart.progress(),
+        }
+    }
+
     fn running(&self) -> Running {
         let (stage, (iteration, particle), best) = match &self.phase {
             Phase::Refine(r) => (
                 Stage::Refine,
-                (self.cpso.iterations(), 0),
+                (self.search_progress().0, 0),
                 cost_of(r.best().1),
             ),
             _ => (
                 Stage::Search,
-                Optimizer::<N, K>::progress(&self.cpso),
+                self.search_progress(),
                 match &self.record {
                     Record::Found(_, o) => cost_of(o),
                     Record::Failed(_) => Cost::FAILED,
@@ -411,30 +542,48 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         }
     }
 
-    /// The next η and its violation cap (applied only once a finished rollout is on
-    /// record, so that an abandoned rollout never leaves the search without a result).
-    fn candidate(&self) -> ([[f64; 2]; K], f64) {
-        let c = match &self.phase {
-            Phase::Refine(r) => r.candidate(),
-            _ => Optimizer::<N, K>::candidate(&self.cpso),
+    /// The next candidate; its violation cap is applied only once a finished rollout is on
+    /// record, so that an abandoned rollout never leaves the search without a result.
+    fn candidate(&self) -> Candidate<K> {
+        let c = match (&self.phase, self.config.strategy) {
+            (Phase::Refine(r), _) => r.candidate(),
+            (_, Strategy::Cpso) => Optimizer::<N, K>::candidate(&self.cpso),
+            (_, Strategy::Multistart) => self.multistart.candidate(),
         };
         match self.record {
-            Record::Found(..) => (c.eta, c.cap),
-            Record::Failed(_) => (c.eta, f64::INFINITY),
+            Record::Found(..) => c,
+            Record::Failed(_) => Candidate {
+                cap: f64::INFINITY,
+                ..c
+            },
         }
     }
 
     fn plan(&self, stop: Stop, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Plan<N, K> {
+        let (iterations, stagnation_events, restarts) = match self.config.strategy {
+            Strategy::Cpso => (
+                self.cpso.iterations(),
+                self.cpso.swarm().stagnation_events(),
+                0,
+            ),
+            Strategy::Multistart => {
+                let r = self.multistart.report();
+                (r.accepted, 0, r.starts.saturating_sub(1))
+            }
+        };
         Plan {
             stop,
+            strategy: self.config.strategy,
             eta,
             outcome,
-            iterations: self.cpso.iterations(),
+            iterations,
             rollouts: self.rollouts,
-            swarm_rollouts: self.swarm_rollouts,
+            search_rollouts: self.search_rollouts,
             abandoned: self.abandoned,
-            stagnation_events: self.cpso.swarm().stagnation_events(),
-            swarm_f: self.swarm_f,
+            stagnation_events,
+            restarts,
+            first_hit: self.first_hit,
+            search_f: self.search_f,
             refine: None,
         }
     }
@@ -445,50 +594,145 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         if let Evaluation::Abandoned(_) = evaluation {
             self.abandoned += 1;
         }
+        if let Some(o) = evaluation
+            .outcome()
+            .filter(|o| self.first_hit.is_none() && o.phi == 0.0 && o.f <= self.config.tolerance)
+        {
+            self.first_hit = Some(self.rollouts);
+            self.first_hit_f = o.f;
+        }
         match self.phase {
             Phase::Search => self.absorb_search(&evaluation, observer),
             Phase::Refine(mut r) => {
                 self.phase = match r.absorb(&evaluation, &mut self.stream, observer) {
-                    Next::Continue => Phase::Refine(r),
-                    Next::Done(stop) => {
-                        let (eta, best) = r.best();
-                        let mut plan = self.plan(stop, *eta, *best);
-                        plan.refine = Some(r.report());
-                        Phase::Done(plan)
-                    }
+                    Next::Continue if self.rollouts < self.config.max_rollouts => Phase::Refine(r),
+                    Next::Continue | Next::Done(_) => self.refined(&r),
                 };
             }
             Phase::Done(_) | Phase::Failed(_) => {}
         }
+        let best = match (&self.phase, &self.record) {
+            (Phase::Refine(r), _) => cost_of(r.best().1),
+            (Phase::Done(p), _) => cost_of(&p.outcome),
+            (_, Record::Found(_, o)) => cost_of(o),
+            (_, Record::Failed(_)) => Cost::FAILED,
+        };
+        observer.event(&Event::Evaluated {
+            rollouts: self.rollouts,
+            best,
+        });
+    }
+
+    /// The plan of a finished (or budget-stopped) refinement: converged, as the search was.
+    fn refined(&self, r: &Refiner<N, K>) -> Phase<N, K> {
+        let (eta, best) = r.best();
+        let mut plan = self.plan(Stop::Converged, *eta, *best);
+        let mut report = r.report();
+        if !r.done() {
+            report.stop = RefineStop::Budget;
+        }
+        plan.refine = Some(report);
+        Phase::Done(plan)
     }
 
     fn absorb_search<O: Observer>(&mut self, evaluation: &Evaluation<N>, observer: &mut O) {
-        self.swarm_rollouts += 1;
+        self.search_rollouts += 1;
         self.record = self.record.fold(&self.eta, evaluation);
-        let next = self.cpso.absorb(evaluation, &mut self.stream, observer);
-        self.phase = match (next, evaluation, self.record) {
+        let next = match self.config.strategy {
+            Strategy::Cpso => self.cpso.absorb(evaluation, &mut self.stream, observer),
+            Strategy::Multistart => self
+                .multistart
+                .absorb(evaluation, &mut self.stream, observer),
+        };
+        let next = match next {
+            Next::Continue if self.rollouts >= self.config.max_rollouts => {
+                Next::Done(Stop::Exhausted)
+            }
+            other => other,
+        };
+        self.phase = match (next, evaluation.outcome(), self.record) {
             (Next::Continue, ..) => Phase::Search,
-            (Next::Done(Stop::Converged), Evaluation::Finished(o), _) => {
-                self.swarm_f = o.f;
-                match self.config.refine() {
-                    Some(rc) => {
-                        let r = Refiner::new(rc, self.eta, *o);
-                        if r.done() {
-                            let mut plan = self.plan(Stop::Converged, self.eta, *o);
-                            plan.refine = Some(r.report());
-                            Phase::Done(plan)
-                        } else {
-                            Phase::Refine(r)
-                        }
-                    }
-                    None => Phase::Done(self.plan(Stop::Converged, self.eta, *o)),
-                }
+            (Next::Done(Stop::Converged), Some(o), _) => {
+                self.search_f = o.f;
+                self.converged(*o, observer)
             }
             (Next::Done(_), _, Record::Found(eta, o)) => {
-                self.swarm_f = o.f;
-                Phase::Done(self.plan(Stop::Exhausted, eta, o))
+                self.search_f = o.f;
+                // The multistart searched to a refinement tolerance it did not reach: σ_e
+                // may still be met (converged, refinement stopped by the budget).
+                let met = o.phi == 0.0 && o.f <= self.config.tolerance;
+                let mut plan = self.plan(
+                    if met {
+                        Stop::Converged
+                    } else {
+                        Stop::Exhausted
+                    },
+                    eta,
+                    o,
+                );
+                plan.refine = self.multistart_refine(&o);
+                Phase::Done(plan)
             }
             (Next::Done(_), _, Record::Failed(e)) => Phase::Failed(e),
         };
+    }
+
+    /// After the search succeeded with the rollout `o` of `self.eta`: refinement, if
+    /// configured and not already met, else the plan.
+    fn converged<O: Observer>(&mut self, o: Outcome<N>, _: &mut O) -> Phase<N, K> {
+        let refine = match (
+            self.config.refine(),
+            self.config.strategy,
+            self.config.refine_against,
+        ) {
+            (Some(rc), Strategy::Cpso, RefineAgainst::Planner) => {
+                Some(Refiner::new(rc, self.eta, o))
+            }
+            (Some(rc), _, RefineAgainst::Truth) => Some(Refiner::against_truth(rc, self.eta, o)),
+            // The multistart refines against the planner model as it searches.
+            (Some(_), Strategy::Multistart, RefineAgainst::Planner) | (None, ..) => None,
+        };
+        match refine {
+            Some(r) if r.done() => {
+                let mut plan = self.plan(Stop::Converged, self.eta, o);
+                plan.refine = Some(r.report());
+                Phase::Done(plan)
+            }
+            Some(_) if self.rollouts >= self.config.max_rollouts => {
+                Phase::Done(self.plan(Stop::Converged, self.eta, o))
+            }
+            Some(r) => Phase::Refine(r),
+            None => {
+                let mut plan = self.plan(Stop::Converged, self.eta, o);
+                plan.refine = self.multistart_refine(&o);
+                Phase::Done(plan)
+            }
+        }
+    }
+
+    /// The multistart refines against the planner model as it searches: its refinement, as
+    /// a report, is what it did after the first hit of σ_e (`None` without a refinement
+    /// tolerance, or without a hit).
+    fn multistart_refine(&self, best: &Outcome<N>) -> Option<RefineReport> {
+        let (Strategy::Multistart, Some(tolerance), RefineAgainst::Planner, Some(hit)) = (
+            self.config.strategy,
+            self.config.refine_tolerance,
+            self.config.refine_against,
+            self.first_hit,
+        ) else {
+            return None;
+        };
+        let reached = best.phi == 0.0 && best.f <= tolerance;
+        Some(RefineReport {
+            iterations: self.multistart.report().accepted,
+            rollouts: self.rollouts.saturating_sub(hit),
+            stop: if reached {
+                RefineStop::Reached
+            } else {
+                RefineStop::Budget
+            },
+            f_start: self.first_hit_f,
+            truth_f: None,
+        })
     }
 }

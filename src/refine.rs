@@ -18,7 +18,8 @@
 //! descent left at rounding level). Only improvements are accepted, so the result is never
 //! worse than the C-PSO result.
 
-use crate::config::RefineConfig;
+use crate::config::{RefineAgainst, RefineConfig};
+use crate::geometry::PoseError;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
 use crate::rollout::Outcome;
@@ -56,11 +57,16 @@ pub struct RefineReport {
     pub stop: RefineStop,
     /// f before refinement (the C-PSO result).
     pub f_start: f64,
+    /// Against the truth model: `truth_f` of the best point (`None`: refined against the
+    /// planner model).
+    pub truth_f: Option<f64>,
 }
 
 /// Which rollout the refiner waits for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Awaiting {
+    /// The start point with the truth model (refinement against the truth).
+    Start,
     /// Jacobian column `c` (`0..2K`).
     Column(usize),
     /// The trial point.
@@ -83,6 +89,10 @@ pub struct Refiner<const N: usize, const K: usize> {
     rollouts: u32,
     f_start: f64,
     stop: Option<RefineStop>,
+    /// Against the truth model: `truth_f` of the current point once evaluated (then `e`
+    /// is its truth error); `None` against the planner model.
+    truth: Option<f64>,
+    against: RefineAgainst,
 }
 
 impl<const N: usize, const K: usize> Refiner<N, K> {
@@ -108,7 +118,28 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
             rollouts: 0,
             f_start: outcome.f,
             stop,
+            truth: None,
+            against: RefineAgainst::Planner,
         }
+    }
+
+    /// Starts from `eta` with its (planner-model) rollout `outcome`, driving the truth-model
+    /// end-pose error below the tolerance (spec §11): the first rollout re-evaluates `eta`
+    /// with the truth model; Jacobian columns are the planner model's (cheap, and close to
+    /// the truth's: the drift is small and smooth in η); trials are evaluated with the
+    /// truth model and accepted when they lower `truth_f` with Φ = 0.
+    #[must_use]
+    pub fn against_truth(config: RefineConfig, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Self {
+        let mut r = Self::new(config, eta, outcome);
+        r.stop = None;
+        r.against = RefineAgainst::Truth;
+        r.awaiting = Awaiting::Start;
+        r
+    }
+
+    /// The f refinement drives: `truth_f` against the truth model, else f.
+    fn merit(&self) -> f64 {
+        self.truth.unwrap_or(self.outcome.f)
     }
 
     /// `true` once refinement has stopped.
@@ -131,6 +162,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
             rollouts: self.rollouts,
             stop: self.stop.unwrap_or(RefineStop::Budget),
             f_start: self.f_start,
+            truth_f: self.truth,
         }
     }
 
@@ -151,6 +183,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                 }
                 eta
             }
+            Awaiting::Start => self.eta,
             Awaiting::Trial => self.trial,
         }
     }
@@ -161,20 +194,42 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
         self.awaiting == Awaiting::Trial
     }
 
-    /// Takes the rollout of [`Refiner::next_eta`] (`None` if it failed or was abandoned);
-    /// `true` while refinement goes on.
-    fn take(&mut self, result: Option<&Outcome<N>>) -> bool {
+    /// `true` if the next rollout needs the truth model.
+    fn wants_truth(&self) -> bool {
+        self.against == RefineAgainst::Truth && !matches!(self.awaiting, Awaiting::Column(_))
+    }
+
+    /// Takes the rollout of [`Refiner::next_eta`] (`None` if it failed or was abandoned)
+    /// and, against the truth, its truth-model error; `true` while refinement goes on.
+    fn take(&mut self, result: Option<&Outcome<N>>, truth: Option<&PoseError>) -> bool {
         if self.stop.is_some() {
             return false;
         }
         self.rollouts += 1;
         match self.awaiting {
+            Awaiting::Start => match (result, truth) {
+                (Some(_), Some(te)) => {
+                    self.e = te.to_array();
+                    let f = te.norm();
+                    self.truth = Some(f);
+                    self.f_start = f;
+                    if f <= self.config.tolerance {
+                        self.stop = Some(RefineStop::Reached);
+                    } else {
+                        self.awaiting = Awaiting::Column(0);
+                    }
+                }
+                _ => self.stop = Some(RefineStop::Stalled),
+            },
             Awaiting::Column(c) => {
+                // Columns difference the planner model about the current point's own
+                // planner-model error (against the planner, `e` is that error too).
+                let base = self.outcome.error.to_array();
                 let column = match result {
                     Some(o) => {
                         let ep = o.error.to_array();
                         let mut d = [0.0; 6];
-                        for ((d, a), b) in d.iter_mut().zip(ep.iter()).zip(self.e.iter()) {
+                        for ((d, a), b) in d.iter_mut().zip(ep.iter()).zip(base.iter()) {
                             *d = (a - b) / self.h;
                         }
                         d
@@ -191,14 +246,31 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     self.plan_trial();
                 }
             }
-            Awaiting::Trial => match result {
-                Some(o) if o.phi == 0.0 && o.f < self.outcome.f => {
+            Awaiting::Trial => match (result, self.against) {
+                (Some(o), RefineAgainst::Planner) if o.phi == 0.0 && o.f < self.outcome.f => {
                     self.eta = self.trial;
                     self.outcome = *o;
                     self.e = o.error.to_array();
                     self.iterations += 1;
                     self.lambda = (self.lambda * 0.1).max(LAMBDA_MIN);
                     if o.f <= self.config.tolerance {
+                        self.stop = Some(RefineStop::Reached);
+                    } else {
+                        self.awaiting = Awaiting::Column(0);
+                    }
+                }
+                (Some(o), RefineAgainst::Truth)
+                    if o.phi == 0.0 && truth.is_some_and(|te| te.norm() < self.merit()) =>
+                {
+                    let te = truth.map_or([0.0; 6], PoseError::to_array);
+                    let f = truth.map_or(f64::INFINITY, PoseError::norm);
+                    self.eta = self.trial;
+                    self.outcome = *o;
+                    self.e = te;
+                    self.truth = Some(f);
+                    self.iterations += 1;
+                    self.lambda = (self.lambda * 0.1).max(LAMBDA_MIN);
+                    if f <= self.config.tolerance {
                         self.stop = Some(RefineStop::Reached);
                     } else {
                         self.awaiting = Awaiting::Column(0);
@@ -256,11 +328,13 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
 }
 
 impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
-    /// The next η; a trial must keep Φ = 0 (cap 0), a Jacobian column is always used.
+    /// The next η; a trial must keep Φ = 0 (cap 0), a Jacobian column is always used;
+    /// against the truth, the start point and the trials take the truth model along.
     fn candidate(&self) -> Candidate<K> {
         Candidate {
             eta: self.next_eta(),
             cap: if self.at_trial() { 0.0 } else { f64::INFINITY },
+            truth: self.wants_truth(),
         }
     }
 
@@ -271,10 +345,10 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
         observer: &mut O,
     ) -> Next {
         let trial = self.at_trial();
-        let more = self.take(evaluation.outcome());
+        let more = self.take(evaluation.outcome(), evaluation.truth());
         if trial {
             observer.event(&Event::RefineTrial {
-                f: self.outcome.f,
+                f: self.merit(),
                 lambda: self.lambda,
             });
         }
@@ -288,6 +362,7 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
 
     fn progress(&self) -> (u32, u32) {
         let c = match self.awaiting {
+            Awaiting::Start => 0,
             Awaiting::Column(c) => c as u32,
             Awaiting::Trial => 2 * K as u32,
         };
@@ -297,13 +372,22 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
 
 /// Solves `A x = b` for a symmetric positive-definite `A` (Cholesky); `None` if a pivot is
 /// not positive or not finite.
-fn solve_spd<const M: usize>(a: &[[f64; M]; M], b: &[f64; M]) -> Option<[f64; M]> {
-    // L row by row: L[i][j] = (A[i][j] − Σ_{k<j} L[i][k] L[j][k]) / L[j][j].
-    let mut l = [[0.0; M]; M];
+pub(crate) fn solve_spd<const M: usize>(a: &[[f64; M]; M], b: &[f64; M]) -> Option<[f64; M]> {
+    let mut l = *a;
+    solve_spd_in_place(&mut l, b)
+}
+
+/// [`solve_spd`], factoring `a` in place: its lower triangle becomes the Cholesky factor
+/// `L` (no second M×M matrix on the stack). The same bits as [`solve_spd`].
+pub(crate) fn solve_spd_in_place<const M: usize>(
+    l: &mut [[f64; M]; M],
+    b: &[f64; M],
+) -> Option<[f64; M]> {
+    // L row by row: L[i][j] = (A[i][j] − Σ_{k<j} L[i][k] L[j][k]) / L[j][j]; row i of the
+    // matrix holds A[i][j] until L[i][j] replaces it.
     for i in 0..M {
         let (done, rest) = l.split_at_mut_checked(i)?;
         let li = rest.first_mut()?;
-        let ai = a.get(i)?;
         for j in 0..i {
             let lj = done.get(j)?;
             let dot: f64 = li
@@ -312,10 +396,11 @@ fn solve_spd<const M: usize>(a: &[[f64; M]; M], b: &[f64; M]) -> Option<[f64; M]
                 .take(j)
                 .fold(0.0, |s, (x, y)| s + x * y);
             let d = *lj.get(j)?;
-            *li.get_mut(j)? = (ai.get(j)? - dot) / d;
+            let aij = *li.get(j)?;
+            *li.get_mut(j)? = (aij - dot) / d;
         }
         let dot: f64 = li.iter().take(i).fold(0.0, |s, x| s + x * x);
-        let pivot = ai.get(i)? - dot;
+        let pivot = li.get(i)? - dot;
         if pivot.is_nan() || pivot <= 0.0 || !pivot.is_finite() {
             return None;
         }

@@ -4,7 +4,7 @@
 //! keep one between budgeted calls), and [`TruthModel`], a [`Sink`] that feeds it the
 //! samples of a rollout. The joint path is piecewise linear between the samples; each
 //! segment is integrated with `m` midpoint sub-steps
-//! ([`crate::integrator::midpoint_substeps`]):
+//! ([`crate::integrator::midpoint_substep`]), which can be resumed between sub-steps:
 //!
 //! - zero angular momentum (spec §5): `δθ = −H~b⁻¹ H~bm(q_mid) δq` (base frame), which
 //!   depends only on the joint increment: the path as written is what is checked;
@@ -19,7 +19,7 @@
 
 use crate::error::Error;
 use crate::geometry::{Pose, Vec3, normalized, quat_angle, quat_exp, quat_matrix, quat_mul};
-use crate::integrator::midpoint_substeps;
+use crate::integrator::midpoint_substep;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::momentum::Momentum;
 use crate::rollout::{Sample, Sink};
@@ -40,6 +40,17 @@ pub struct TruthState<const N: usize> {
     segments: u32,
     /// Angular momentum about the system CoM, inertial frame (kg m²/s).
     momentum: Vec3,
+    /// The segment being integrated (resumable): from, to, duration of a sub-step, next j.
+    pending: Option<Segment<N>>,
+}
+
+/// A segment whose sub-steps are not all integrated yet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Segment<const N: usize> {
+    from: [f64; N],
+    to: [f64; N],
+    dt: f64,
+    next: u32,
 }
 
 impl<const N: usize> TruthState<N> {
@@ -55,6 +66,7 @@ impl<const N: usize> TruthState<N> {
             error: None,
             segments: 0,
             momentum: Vec3::new(0.0, 0.0, 0.0),
+            pending: None,
         }
     }
 
@@ -70,38 +82,86 @@ impl<const N: usize> TruthState<N> {
     /// Integrates the segment from the previous sample to configuration `q` (rad) at time
     /// `t` (s), with the robot of `task`.
     pub fn push<const K: usize>(&mut self, task: &Task<N, K>, q: &[f64; N], t: f64) {
-        let Some((prev, t_prev)) = self.last.replace((*q, t)) else {
-            return;
-        };
-        if self.error.is_some() {
+        self.begin(q, t);
+        let _ = self.integrate(task, u32::MAX);
+    }
+
+    /// Starts the segment to the sample `(q, t)`: [`TruthState::integrate`] then works
+    /// through its sub-steps (the first sample only sets the start). A segment still
+    /// pending is finished first.
+    pub fn begin(&mut self, q: &[f64; N], t: f64) {
+        if self.pending.is_some() {
+            // Not expected: callers integrate a segment before starting the next.
             return;
         }
+        if let Some((prev, t_prev)) = self.last.replace((*q, t)) {
+            if self.error.is_none() {
+                self.pending = Some(Segment {
+                    from: prev,
+                    to: *q,
+                    dt: (t - t_prev) / f64::from(self.substeps),
+                    next: 0,
+                });
+            }
+        }
+    }
+
+    /// `true` while a segment has sub-steps left.
+    #[must_use]
+    pub fn pending(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Integrates at most `budget` sub-steps of the pending segment; returns how many.
+    pub fn integrate<const K: usize>(&mut self, task: &Task<N, K>, budget: u32) -> u32 {
+        let Some(mut seg) = self.pending else {
+            return 0;
+        };
         let robot = task.robot();
         let moving = self.momentum != Vec3::new(0.0, 0.0, 0.0);
-        let dt = (t - t_prev) / f64::from(self.substeps);
         let l = self.momentum;
-        let mut attitude = self.attitude;
-        let mut max_angle = self.max_angle;
-        let result = midpoint_substeps(&prev, q, self.substeps, |mid, dq| {
-            let m = Momentum::new(robot, &Frames::new(robot, mid));
+        let mut used = 0;
+        while seg.next < self.substeps && used < budget {
+            let (mid, dq) = midpoint_substep(&seg.from, &seg.to, self.substeps, seg.next);
+            let m = Momentum::new(robot, &Frames::new(robot, &mid));
             let dtheta = if moving {
-                let f = m.hb.ldlt().ok_or(Error::SingularInertia)?;
-                let body_l = quat_matrix(attitude).transpose() * l;
-                f.solve(&(body_l * dt - m.coupling_momentum(dq)))
+                match m.hb.ldlt() {
+                    Some(f) => {
+                        let body_l = quat_matrix(self.attitude).transpose() * l;
+                        Ok(f.solve(&(body_l * seg.dt - m.coupling_momentum(&dq))))
+                    }
+                    None => Err(Error::SingularInertia),
+                }
             } else {
-                m.base_angular_velocity(dq)?
+                m.base_angular_velocity(&dq)
             };
-            attitude = normalized(quat_mul(attitude, quat_exp(&dtheta)));
-            max_angle = max_angle.max(quat_angle(attitude));
-            Ok(())
-        });
-        self.attitude = attitude;
-        self.max_angle = max_angle;
-        if let Err(e) = result {
-            self.error = Some(e);
-            return;
+            used += 1;
+            seg.next += 1;
+            match dtheta {
+                Ok(d) => {
+                    self.attitude = normalized(quat_mul(self.attitude, quat_exp(&d)));
+                    self.max_angle = self.max_angle.max(quat_angle(self.attitude));
+                }
+                Err(e) => {
+                    self.error = Some(e);
+                    self.pending = None;
+                    return used;
+                }
+            }
         }
-        self.segments += 1;
+        if seg.next >= self.substeps {
+            self.pending = None;
+            self.segments += 1;
+        } else {
+            self.pending = Some(seg);
+        }
+        used
+    }
+
+    /// Sub-steps per segment.
+    #[must_use]
+    pub fn substeps(&self) -> u32 {
+        self.substeps
     }
 
     /// Base attitude at the last sample (unit quaternion, base → inertial).

@@ -48,7 +48,7 @@ fn bits(p: &Plan<7, 4>) -> Vec<u64> {
         .chain(&o.joint_max)
         .chain(&o.end_pose.position)
         .chain(&o.end_pose.quat_wxyz)
-        .chain(&[o.f, o.phi, o.g, p.swarm_f])
+        .chain(&[o.f, o.phi, o.g, p.search_f])
         .map(|v| v.to_bits())
         .chain([
             u64::from(p.iterations),
@@ -499,9 +499,9 @@ fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
         assert!(plan.converged(), "seed {seed} did not converge: {plan:?}");
         assert!(plan.iterations <= 200);
         assert!(
-            plan.swarm_f <= 0.05,
+            plan.search_f <= 0.05,
             "seed {seed}: C-PSO f {}",
-            plan.swarm_f
+            plan.search_f
         );
         assert_eq!(plan.outcome.phi, 0.0);
         let r = plan.refine.unwrap();

@@ -277,6 +277,9 @@ fn small_planner_config() -> impl Strategy<Value = PlannerConfig> {
                 refine,
             )| {
                 PlannerConfig {
+                    strategy: reactionless::Strategy::Cpso,
+                    max_rollouts: 8040,
+                    refine_against: reactionless::RefineAgainst::Planner,
                     particles,
                     max_iterations,
                     c1,
@@ -324,7 +327,7 @@ proptest! {
         prop_assert_eq!(whole, sliced);
         if let Ok(Status::Finished(p)) = whole {
             let o = &p.outcome;
-            let scalars = [o.f, o.phi, o.g, p.swarm_f];
+            let scalars = [o.f, o.phi, o.g, p.search_f];
             for v in p.eta.iter().flatten().chain(&o.q_final).chain(&o.end_pose.position).chain(&scalars) {
                 prop_assert!(v.is_finite(), "non-finite value in the plan");
             }

@@ -5,7 +5,7 @@
 #![allow(missing_docs)]
 
 use core::mem::size_of;
-use reactionless::{Basis, Frames, Outcome, Planner, Robot, Rollout, Task, TimeLaw};
+use reactionless::{Basis, Frames, Multistart, Outcome, Planner, Robot, Rollout, Task, TimeLaw};
 
 /// `size_of` of Task<7, 4>, Rollout<7, 4> and Planner<7, 4, 64> equal the README's x86-64
 /// figures.
@@ -20,6 +20,7 @@ fn documented_sizes_for_the_reference_robot() {
         ("TimeLaw<4>", size_of::<TimeLaw<4>>()),
         ("Frames<7>", size_of::<Frames<7>>()),
         ("Outcome<7>", size_of::<Outcome<7>>()),
+        ("Multistart<7, 4>", size_of::<Multistart<7, 4>>()),
         ("Planner<7, 4, 64>", size_of::<Planner<7, 4, 64>>()),
     ];
     for (name, size) in sizes {
@@ -27,5 +28,6 @@ fn documented_sizes_for_the_reference_robot() {
     }
     assert_eq!(size_of::<Task<7, 4>>(), 3432);
     assert_eq!(size_of::<Rollout<7, 4>>(), 856);
-    assert_eq!(size_of::<Planner<7, 4, 64>>(), 22464);
+    assert_eq!(size_of::<Planner<7, 4, 64>>(), 37064);
+    assert_eq!(size_of::<Multistart<7, 4>>(), 13800);
 }

@@ -144,11 +144,12 @@ fn measure(task: &Task<N, K>, plan: &Plan<N, K>, frames: u32) -> Result<(), Erro
 
     let o = &plan.outcome;
     defmt::println!(
-        "RESULT converged={=bool} iterations={=u32} rollouts={=u32} stagnation={=u32} frames={=u32} f={=u64:#018x} samples={=u32} digest={=u64:#018x} reproducible={=bool}",
+        "RESULT converged={=bool} iterations={=u32} rollouts={=u32} stagnation={=u32} restarts={=u32} frames={=u32} f={=u64:#018x} samples={=u32} digest={=u64:#018x} reproducible={=bool}",
         converged,
         plan.iterations,
         plan.rollouts,
         plan.stagnation_events,
+        plan.restarts,
         frames,
         o.f.to_bits(),
         digest.samples(),

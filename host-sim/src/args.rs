@@ -8,7 +8,7 @@
 use crate::error::CliError;
 use crate::taskfile::Overrides;
 use crate::urdf::{self, Chain};
-use reactionless::{Error as CoreError, Param, eta_pairs};
+use reactionless::{Error as CoreError, Param, RefineAgainst, Strategy, eta_pairs};
 use std::path::PathBuf;
 
 /// A comma-separated list of numbers (negative values allowed: `--q-deg -90,45,0`).
@@ -92,6 +92,13 @@ pub struct PlanArgs {
     /// Refine until f ≤ this (overrides `[planner] refine_tolerance`).
     #[arg(long)]
     pub refine_tolerance: Option<f64>,
+    /// Search strategy: multistart or cpso (overrides `[planner] strategy`).
+    #[arg(long, value_parser = parse_strategy)]
+    pub strategy: Option<Strategy>,
+    /// What refinement drives below the refinement tolerance: planner (f) or truth
+    /// (truth_f, the base drift included) (overrides `[planner] refine_against`).
+    #[arg(long, value_parser = parse_refine_against)]
+    pub refine_against: Option<RefineAgainst>,
 }
 
 impl PlanArgs {
@@ -100,7 +107,37 @@ impl PlanArgs {
         Overrides {
             seed: self.seed,
             refine_tolerance: self.refine_tolerance,
+            strategy: self.strategy,
+            refine_against: self.refine_against,
         }
+    }
+}
+
+/// Parses a strategy name (clap value parser).
+pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
+    Strategy::from_name(s.trim())
+        .ok_or_else(|| format!("'{s}' is not a strategy (expected multistart or cpso)"))
+}
+
+/// Parses a comma-separated list of strategies (clap value parser); no repeats.
+pub fn parse_strategies(s: &str) -> Result<Vec<Strategy>, String> {
+    let list: Vec<Strategy> = s.split(',').map(parse_strategy).collect::<Result<_, _>>()?;
+    for (i, a) in list.iter().enumerate() {
+        if list.iter().skip(i + 1).any(|b| b == a) {
+            return Err(format!("strategy {} appears twice in '{s}'", a.name()));
+        }
+    }
+    Ok(list)
+}
+
+/// Parses `planner` or `truth` (clap value parser).
+pub fn parse_refine_against(s: &str) -> Result<RefineAgainst, String> {
+    match s.trim() {
+        "planner" => Ok(RefineAgainst::Planner),
+        "truth" => Ok(RefineAgainst::Truth),
+        _ => Err(format!(
+            "'{s}' is not a refinement target (expected planner or truth)"
+        )),
     }
 }
 

@@ -25,10 +25,13 @@ const SLICE: u32 = 3000;
 pub struct Planned<const N: usize, const K: usize> {
     /// The plan (why it stopped: [`Plan::stop`]).
     pub plan: Plan<N, K>,
-    /// gbest's f after each completed generation, then the successful f.
+    /// C-PSO: gbest's f after each completed generation, then the successful f (empty for
+    /// the multistart).
     pub history: Vec<f64>,
     /// Refinement: the best f after each trial.
     pub refine_history: Vec<f64>,
+    /// The best f after each rollout (search, then refinement).
+    pub best_per_rollout: Vec<f64>,
     /// Wall time of planning (s).
     pub seconds: f64,
     /// Integration steps spent ([`Planner::spent`]).
@@ -48,10 +51,12 @@ pub fn plan<const N: usize, const K: usize>(
     let mut planner: Box<Planner<N, K, HOST_CAPACITY>> =
         Box::new(Planner::new(task, config).or_input(|| "planner")?);
     let bar = if progress && std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(u64::from(config.max_iterations));
+        let b = ProgressBar::new(u64::from(config.max_rollouts));
         b.set_style(
-            ProgressStyle::with_template("{spinner} {elapsed} [{bar:30}] gen {pos}/{len} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(
+                "{spinner} {elapsed} [{bar:30}] {pos}/{len} rollouts {msg}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         b
     } else {
@@ -59,20 +64,11 @@ pub fn plan<const N: usize, const K: usize>(
     };
     let mut history = Vec::new();
     let mut refine_history = Vec::new();
+    let mut best_per_rollout = Vec::new();
     let mut observer = |e: &Event| match e {
-        Event::Generation {
-            iteration,
-            best,
-            rollouts,
-        } => {
-            history.push(best.f);
-            bar.set_position(u64::from(*iteration));
-            bar.set_message(format!("best f {:.3e}, {rollouts} rollouts", best.f));
-        }
-        Event::SwarmConverged { f, .. } => {
-            history.push(*f);
-            bar.set_message(format!("C-PSO converged, f {f:.3e}; refining"));
-        }
+        Event::Evaluated { best, .. } => best_per_rollout.push(best.f),
+        Event::Generation { best, .. } => history.push(best.f),
+        Event::SwarmConverged { f, .. } => history.push(*f),
         Event::RefineTrial { f, .. } => refine_history.push(*f),
         Event::Stagnation { .. } => {}
     };
@@ -82,7 +78,10 @@ pub fn plan<const N: usize, const K: usize>(
             .step(SLICE, &mut observer)
             .or_failed(|| "planning failed")?
         {
-            Status::Running(_) => {}
+            Status::Running(r) => {
+                bar.set_position(u64::from(r.rollouts));
+                bar.set_message(format!("best f {:.3e} ({:?})", r.best.f, r.stage));
+            }
             Status::Finished(plan) => break plan,
         }
     };
@@ -91,6 +90,7 @@ pub fn plan<const N: usize, const K: usize>(
         plan,
         history,
         refine_history,
+        best_per_rollout,
         seconds: start.elapsed().as_secs_f64(),
         steps: planner.spent(),
     })

@@ -42,6 +42,13 @@ pub struct Record {
     pub seed: u64,
     /// Refinement target, if refinement ran.
     pub refine_tolerance: Option<f64>,
+    /// The search strategy (`multistart` or `cpso`); records made before strategies
+    /// existed have none and were planned with `cpso`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strategy: Option<String>,
+    /// What refinement drove (`planner` or `truth`); absent: `planner`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refine_against: Option<String>,
     /// The build that made the record.
     pub build: Build,
     /// What was planned.
@@ -99,6 +106,9 @@ pub struct Outputs {
     pub rollouts: u32,
     /// Stagnation alarms.
     pub stagnation_events: u32,
+    /// Multistart restarts (absent in older records: 0).
+    #[serde(default)]
+    pub restarts: u32,
     /// η, hex bit patterns.
     pub eta_bits: Vec<String>,
     /// f, hex bit pattern.
@@ -156,6 +166,10 @@ pub struct RecordedRun {
     pub seed: u64,
     /// The refinement tolerance used, if refinement ran.
     pub refine_tolerance: Option<f64>,
+    /// The strategy used.
+    pub strategy: reactionless::Strategy,
+    /// What refinement drove.
+    pub refine_against: reactionless::RefineAgainst,
 }
 
 /// Plans `lt` (with the overrides) and computes the outputs a record holds.
@@ -187,6 +201,7 @@ pub fn outputs_of<const N: usize, const K: usize>(
             iterations: p.iterations,
             rollouts: p.rollouts,
             stagnation_events: p.stagnation_events,
+            restarts: p.restarts,
             eta_bits: p.eta.iter().flatten().map(|v| bits(*v)).collect(),
             f_bits: bits(o.f),
             end_pose_bits: PoseBits {
@@ -200,6 +215,8 @@ pub fn outputs_of<const N: usize, const K: usize>(
         },
         seed: config.seed,
         refine_tolerance: config.refine_tolerance,
+        strategy: config.strategy,
+        refine_against: config.refine_against,
     })
 }
 
@@ -248,6 +265,11 @@ pub fn first_difference(a: &Outputs, b: &Outputs) -> Option<Difference> {
             "stagnation_events".into(),
             a.stagnation_events.to_string(),
             b.stagnation_events.to_string(),
+        ),
+        (
+            "restarts".into(),
+            a.restarts.to_string(),
+            b.restarts.to_string(),
         ),
         (
             "eta length".into(),

@@ -6,7 +6,9 @@
 
 use crate::error::{CliError, Context};
 use crate::urdf::{self, Chain};
-use reactionless::{Error as CoreError, Motion, Param, PlannerConfig, Pose, Robot, Task};
+use reactionless::{
+    Error as CoreError, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy, Task,
+};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -358,6 +360,12 @@ impl LoadedTask {
         if let Some(r) = overrides.refine_tolerance {
             config.refine_tolerance = Some(r);
         }
+        if let Some(st) = overrides.strategy {
+            config.strategy = st;
+        }
+        if let Some(a) = overrides.refine_against {
+            config.refine_against = a;
+        }
         config.validate(capacity).map_err(|e| {
             let flag = e.param().and_then(|p| overrides.flag_for(p));
             match flag {
@@ -376,6 +384,10 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// `--refine-tolerance`.
     pub refine_tolerance: Option<f64>,
+    /// `--strategy`.
+    pub strategy: Option<Strategy>,
+    /// `--refine-against`.
+    pub refine_against: Option<RefineAgainst>,
 }
 
 impl Overrides {

@@ -400,7 +400,15 @@ fn plan_converges_writes_everything_and_refines() {
     let o = host_sim()
         .arg("plan")
         .arg(paper())
-        .args(["--seed", "2", "--refine-tolerance", "1e-6", "--out"])
+        .args([
+            "--seed",
+            "2",
+            "--refine-tolerance",
+            "1e-6",
+            "--strategy",
+            "cpso",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
@@ -443,12 +451,12 @@ fn plan_converges_writes_everything_and_refines() {
     assert_eq!(p["eta"].as_array().unwrap().len(), 8);
     assert!(p["f"].as_f64().unwrap() <= 1e-6);
     assert_eq!(p["phi"].as_f64().unwrap(), 0.0);
-    assert!(p["swarm_f"].as_f64().unwrap() <= 0.05);
+    assert!(p["search_f"].as_f64().unwrap() <= 0.05);
     assert_eq!(p["refine"]["stop"], "reached");
     let history = p["best_f_history"].as_array().unwrap();
     // One entry per completed generation (0..iterations), then the successful f.
     assert_eq!(history.len() as u64, p["iterations"].as_u64().unwrap() + 1);
-    assert_eq!(history.last().unwrap(), &p["swarm_f"]);
+    assert_eq!(history.last().unwrap(), &p["search_f"]);
     // The trajectory and summary are the plan's.
     let s = read_json(&out.join("summary.json"));
     assert_eq!(s["eta"], p["eta"]);
@@ -472,7 +480,7 @@ fn plan_that_does_not_converge_exits_1_and_still_reports() {
     let o = host_sim()
         .arg("plan")
         .arg(&task)
-        .arg("--out")
+        .args(["--strategy", "cpso", "--out"])
         .arg(&out)
         .output()
         .unwrap();
@@ -485,8 +493,62 @@ fn plan_that_does_not_converge_exits_1_and_still_reports() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("not converged"));
     let p = read_json(&out.join("plan.json"));
     assert_eq!(p["status"], "not_converged");
+    assert_eq!(p["strategy"], "cpso");
     assert_eq!(p["iterations"], 1);
     assert_eq!(p["rollouts"], 80);
+}
+
+/// The default strategy is the multistart; it refines to the asked tolerance as it
+/// searches, and reports the strategy, its restarts and the first hit of σ_e.
+/// Verifies RL-PLAN-009, RL-PLAN-010.
+#[test]
+fn plan_with_the_default_strategy_refines_to_the_asked_tolerance() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plan");
+    let o = host_sim()
+        .arg("plan")
+        .arg(paper())
+        .args(["--seed", "2", "--refine-tolerance", "1e-9", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let p = read_json(&out.join("plan.json"));
+    assert_eq!(p["strategy"], "multistart");
+    assert_eq!(p["status"], "converged");
+    assert!(p["f"].as_f64().unwrap() <= 1e-9);
+    assert_eq!(p["refine"]["stop"], "reached");
+    let hit = p["first_hit_rollouts"].as_u64().unwrap();
+    assert!(hit <= p["rollouts"].as_u64().unwrap());
+    assert!(p["restarts"].is_u64());
+}
+
+/// A plan whose budget is spent exits 1 after exactly `max_rollouts` rollouts.
+/// Verifies RL-PLAN-009.
+#[test]
+fn the_total_budget_ends_a_plan_exactly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = task_with(tmp.path(), |s| {
+        s.replace("tolerance = 0.05", "tolerance = 1e-12\nmax_rollouts = 25")
+    });
+    let out = tmp.path().join("out");
+    let o = host_sim()
+        .arg("plan")
+        .arg(&task)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let p = read_json(&out.join("plan.json"));
+    assert_eq!(p["status"], "not_converged");
+    assert_eq!(p["rollouts"], 25);
 }
 
 fn plan_rejects(edit: impl Fn(String) -> String, want: &[&str]) {
@@ -518,7 +580,7 @@ fn bad_planner_settings_are_named() {
         &["[planner] particles = 0", "> 0"],
     );
     plan_rejects(
-        |s| s.replace("particles = 40", "particles = 1000"),
+        |s| s.replace("particles = 40", "particles = 1000\nstrategy = \"cpso\""),
         &["particles = 1000", "capacity of 256"],
     );
     plan_rejects(
@@ -546,6 +608,14 @@ fn bad_planner_settings_are_named() {
         &["[planner.stagnation] window = 100"],
     );
     plan_rejects(|s| s.replace("seed = 1", "seed = -1"), &["seed"]);
+    plan_rejects(
+        |s| s.replace("seed = 1", "seed = 1\nstrategy = \"pso\""),
+        &["strategy", "pso"],
+    );
+    plan_rejects(
+        |s| s.replace("seed = 1", "seed = 1\nmax_rollouts = 0"),
+        &["[planner] max_rollouts = 0", "> 0"],
+    );
     plan_rejects(
         |s| s.replace("seed = 1", "seed = 1\nrefine_tolerance = 0.0"),
         &["refine_tolerance = 0"],

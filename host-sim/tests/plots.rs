@@ -75,11 +75,7 @@ const FIGURES: [(&str, (u32, u32), &[&str]); 5] = [
         (1000, 600),
         &["base rotation (deg)", "time (s)", "e-4"],
     ),
-    (
-        "convergence",
-        (1000, 600),
-        &["best f (m, rad)", "generation"],
-    ),
+    ("convergence", (1000, 600), &["best f (m, rad)", "rollouts"]),
 ];
 
 fn check(dir: &Path, written: &[String], figures: &[(&str, (u32, u32), &[&str])]) {

@@ -471,7 +471,8 @@ fn target_rejects_a_robot_the_flight_image_is_not_built_for() {
 fn task_blocks_round_trip_through_the_core() {
     // What host-sim sends to the target decodes to the same task, bit for bit.
     let lt = host_sim::taskfile::load(&root().join("spec/tasks/paper.toml")).unwrap();
-    let bytes = host_sim::cmd::target::task_block(&lt).unwrap();
+    let bytes =
+        host_sim::cmd::target::task_block(&lt, &host_sim::taskfile::Overrides::default()).unwrap();
     let block = reactionless::block::decode::<7>(&bytes).unwrap();
     assert_eq!(block.robot, reactionless::CHASER7);
     assert_eq!(

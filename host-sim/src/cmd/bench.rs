@@ -5,12 +5,13 @@
 //! `plan_rollouts_median`: over seeds 1..=10 with the task's planner settings. The η timed
 //! for steps and rollouts is the seed-1 plan's.
 
+use crate::args::parse_strategy;
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
 use crate::stats::median;
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
-use reactionless::{Progress, Rollout};
+use reactionless::{Progress, Rollout, Strategy};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -61,18 +62,21 @@ pub struct Args {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Search strategy: multistart or cpso (overrides `[planner] strategy`).
+    #[arg(long, value_parser = parse_strategy)]
+    strategy: Option<Strategy>,
 }
 
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        run(&self.task, self.json)
+        run(&self.task, self.json, self.strategy)
     }
 }
 
-fn run(task_path: &Path, json: bool) -> Result<(), CliError> {
+fn run(task_path: &Path, json: bool, strategy: Option<Strategy>) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
-    let report = with_dims!(lt.chain.dof(), bench_n, &lt)?;
+    let report = with_dims!(lt.chain.dof(), bench_n, &lt, strategy)?;
     if json {
         let s = serde_json::to_string(&report).or_internal(|| "report JSON")?;
         println!("{s}");
@@ -99,7 +103,10 @@ fn run(task_path: &Path, json: bool) -> Result<(), CliError> {
     Ok(())
 }
 
-fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson, CliError> {
+fn bench_n<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    strategy: Option<Strategy>,
+) -> Result<BenchJson, CliError> {
     let task = lt.task::<N, K>()?;
     let mut plans = Vec::new();
     let mut eta = None;
@@ -109,6 +116,7 @@ fn bench_n<const N: usize, const K: usize>(lt: &LoadedTask) -> Result<BenchJson,
             HOST_CAPACITY,
             &Overrides {
                 seed: Some(seed),
+                strategy,
                 ..Overrides::default()
             },
         )?;

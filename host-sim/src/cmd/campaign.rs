@@ -7,7 +7,7 @@
 //! overall: success rate, and median / p90 / max of iterations, rollouts, f, base
 //! disturbance and wall time) atomically.
 
-use crate::args::parse_seeds;
+use crate::args::{parse_refine_against, parse_seeds, parse_strategies};
 use crate::artifacts::write_rollout;
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
@@ -17,6 +17,7 @@ use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
+use reactionless::{RefineAgainst, Strategy};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
@@ -29,6 +30,8 @@ pub struct Run {
     pub task: String,
     /// The robot's name (URDF).
     pub robot: String,
+    /// The search strategy.
+    pub strategy: &'static str,
     /// Seed.
     pub seed: u64,
     /// `converged` (f ≤ σ_e with Φ = 0) or `not_converged`.
@@ -49,18 +52,19 @@ pub struct Run {
     pub base_disturbance_deg: f64,
     /// f of the truth-model end pose (the base drift included) against the target.
     pub truth_f: f64,
+    /// With a refinement tolerance: whether it was met (f, or truth_f when refining
+    /// against the truth model); empty without one.
+    pub refined: Option<bool>,
     /// Wall time of planning (s).
     pub wall_s: f64,
 }
 
-fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run, CliError> {
-    let config = lt.planner(
-        HOST_CAPACITY,
-        &Overrides {
-            seed: Some(seed),
-            ..Overrides::default()
-        },
-    )?;
+fn one<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    overrides: &Overrides,
+) -> Result<Run, CliError> {
+    let config = lt.planner(HOST_CAPACITY, overrides)?;
+    let seed = config.seed;
     let task = lt.task::<N, K>()?;
     let done = drive::plan::<N, K>(lt, config, false)?;
     let p = done.plan;
@@ -68,6 +72,7 @@ fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run
     Ok(Run {
         task: lt.path.display().to_string(),
         robot: lt.chain.name.clone(),
+        strategy: config.strategy.name(),
         seed,
         status: if p.converged() {
             "converged"
@@ -82,6 +87,13 @@ fn one<const N: usize, const K: usize>(lt: &LoadedTask, seed: u64) -> Result<Run
         orientation_error_deg: p.outcome.error.orientation_deg(),
         base_disturbance_deg: truth.base_disturbance_deg,
         truth_f: truth.f,
+        refined: config.refine_tolerance.map(|tol| {
+            p.converged()
+                && match config.refine_against {
+                    RefineAgainst::Planner => p.outcome.f <= tol,
+                    RefineAgainst::Truth => truth.f <= tol,
+                }
+        }),
         wall_s: done.seconds,
     })
 }
@@ -132,9 +144,18 @@ fn overview_row(out: &mut String, label: &str, runs: &[&Run]) {
     let rollouts: Vec<f64> = ok.iter().map(|r| f64::from(r.rollouts)).collect();
     let all_rollouts: Vec<f64> = runs.iter().map(|r| f64::from(r.rollouts)).collect();
     let wall: Vec<f64> = runs.iter().map(|r| r.wall_s).collect();
+    let refined = runs.iter().filter(|r| r.refined == Some(true)).count();
+    let refined = if runs.iter().any(|r| r.refined.is_some()) {
+        format!(
+            "{refined} ({:.1}%)",
+            100.0 * refined as f64 / runs.len().max(1) as f64
+        )
+    } else {
+        "–".into()
+    };
     let _ = writeln!(
         out,
-        "| {label} | {} | {} ({:.1}%) | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} |",
+        "| {label} | {} | {} ({:.1}%) | {refined} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} |",
         runs.len(),
         ok.len(),
         100.0 * ok.len() as f64 / runs.len().max(1) as f64,
@@ -157,25 +178,41 @@ pub fn summary(runs: &[Run], seeds: &[u64]) -> String {
     );
     let _ = writeln!(
         out,
-        "\n## Overview\n\nRollouts to success over the converged runs (median, p95, max); the most rollouts any run spent; wall time of planning over all runs.\n\n| robot | runs | converged | rollouts median | p95 | max | most spent | wall median (s) | wall max (s) |\n|---|---|---|---|---|---|---|---|---|"
+        "\n## Overview\n\nConverged: f ≤ σ_e with Φ = 0. Refined: the refinement tolerance met (f, or truth_f against the truth model). Rollouts to success over the converged runs (median, p95, max); the most rollouts any run spent; wall time of planning over all runs.\n\n| strategy · robot | runs | converged | refined | rollouts median | p95 | max | most spent | wall median (s) | wall max (s) |\n|---|---|---|---|---|---|---|---|---|---|"
     );
+    let mut strategies: Vec<&str> = runs.iter().map(|r| r.strategy).collect();
+    strategies.dedup();
+    strategies.sort_unstable();
+    strategies.dedup();
     let mut robots: Vec<&str> = runs.iter().map(|r| r.robot.as_str()).collect();
     robots.sort_unstable();
     robots.dedup();
-    for robot in &robots {
-        let rs: Vec<&Run> = runs.iter().filter(|r| r.robot == *robot).collect();
-        overview_row(&mut out, robot, &rs);
-    }
-    if robots.len() > 1 {
-        let all: Vec<&Run> = runs.iter().collect();
-        overview_row(&mut out, "all robots", &all);
+    for strategy in &strategies {
+        for robot in &robots {
+            let rs: Vec<&Run> = runs
+                .iter()
+                .filter(|r| r.robot == *robot && r.strategy == *strategy)
+                .collect();
+            overview_row(&mut out, &format!("{strategy} · {robot}"), &rs);
+        }
+        if robots.len() > 1 {
+            let all: Vec<&Run> = runs.iter().filter(|r| r.strategy == *strategy).collect();
+            overview_row(&mut out, &format!("{strategy} · all robots"), &all);
+        }
     }
     let _ = writeln!(out, "\n## Per task");
     let mut tasks: Vec<&str> = runs.iter().map(|r| r.task.as_str()).collect();
     tasks.dedup();
     for t in &tasks {
-        let rs: Vec<&Run> = runs.iter().filter(|r| r.task == *t).collect();
-        stats_rows(&mut out, &format!("`{t}`"), &rs);
+        for strategy in &strategies {
+            let rs: Vec<&Run> = runs
+                .iter()
+                .filter(|r| r.task == *t && r.strategy == *strategy)
+                .collect();
+            if !rs.is_empty() {
+                stats_rows(&mut out, &format!("`{t}` ({strategy})"), &rs);
+            }
+        }
     }
     if tasks.len() > 1 {
         let all: Vec<&Run> = runs.iter().collect();
@@ -205,6 +242,15 @@ pub struct Args {
     /// Seeds: `3`, `1,2,5` or `1..10` (inclusive).
     #[arg(long, value_parser = parse_seeds)]
     seeds: Seeds,
+    /// Strategies to compare, comma-separated (default: each task's `[planner] strategy`).
+    #[arg(long, value_parser = parse_strategies)]
+    strategy: Option<Vec<Strategy>>,
+    /// Refine until f ≤ this (overrides `[planner] refine_tolerance`).
+    #[arg(long)]
+    refine_tolerance: Option<f64>,
+    /// What refinement drives: planner or truth (overrides `[planner] refine_against`).
+    #[arg(long, value_parser = parse_refine_against)]
+    refine_against: Option<RefineAgainst>,
     /// Worker threads (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
@@ -226,11 +272,34 @@ impl Run {
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        run(&self.tasks, &self.seeds, self.jobs, &self.out)
+        let strategies: Vec<Option<Strategy>> = match &self.strategy {
+            Some(list) => list.iter().copied().map(Some).collect(),
+            None => vec![None],
+        };
+        let base = Overrides {
+            refine_tolerance: self.refine_tolerance,
+            refine_against: self.refine_against,
+            ..Overrides::default()
+        };
+        run(
+            &self.tasks,
+            &self.seeds,
+            &strategies,
+            &base,
+            self.jobs,
+            &self.out,
+        )
     }
 }
 
-fn run(tasks: &[PathBuf], seeds: &[u64], jobs: Option<usize>, out: &Path) -> Result<(), CliError> {
+fn run(
+    tasks: &[PathBuf],
+    seeds: &[u64],
+    strategies: &[Option<Strategy>],
+    base: &Overrides,
+    jobs: Option<usize>,
+    out: &Path,
+) -> Result<(), CliError> {
     if tasks.is_empty() {
         return Err(CliError::input("campaign needs at least one task file"));
     }
@@ -240,16 +309,37 @@ fn run(tasks: &[PathBuf], seeds: &[u64], jobs: Option<usize>, out: &Path) -> Res
         .collect::<Result<_, _>>()?;
     // Validate every task and its planner settings before anything runs.
     for lt in &loaded {
-        lt.planner(HOST_CAPACITY, &Overrides::default())?;
+        for st in strategies {
+            lt.planner(
+                HOST_CAPACITY,
+                &Overrides {
+                    strategy: *st,
+                    ..*base
+                },
+            )?;
+        }
         with_dims!(lt.chain.dof(), validate, lt)?;
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs.unwrap_or(0))
         .build()
         .or_input(|| "--jobs")?;
-    let pairs: Vec<(&LoadedTask, u64)> = loaded
+    let pairs: Vec<(&LoadedTask, Overrides)> = loaded
         .iter()
-        .flat_map(|lt| seeds.iter().map(move |s| (lt, *s)))
+        .flat_map(|lt| {
+            strategies.iter().flat_map(move |st| {
+                seeds.iter().map(move |s| {
+                    (
+                        lt,
+                        Overrides {
+                            seed: Some(*s),
+                            strategy: *st,
+                            ..*base
+                        },
+                    )
+                })
+            })
+        })
         .collect();
     let bar = if std::io::stderr().is_terminal() {
         let b = ProgressBar::new(pairs.len() as u64);
@@ -266,8 +356,8 @@ fn run(tasks: &[PathBuf], seeds: &[u64], jobs: Option<usize>, out: &Path) -> Res
     let results: Vec<Result<Run, CliError>> = pool.install(|| {
         pairs
             .par_iter()
-            .map(|(lt, seed)| {
-                let r = with_dims!(lt.chain.dof(), one, lt, *seed);
+            .map(|(lt, overrides)| {
+                let r = with_dims!(lt.chain.dof(), one, lt, overrides);
                 bar.inc(1);
                 r
             })

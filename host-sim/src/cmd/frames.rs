@@ -5,6 +5,7 @@
 //! budget actually used per frame (max and mean; never above the budget) and the wall time
 //! per frame on this machine (max and mean).
 
+use crate::args::PlanArgs;
 use crate::drive::HOST_CAPACITY;
 use crate::error::{CliError, Context};
 use crate::taskfile::{self, LoadedTask, Overrides};
@@ -51,23 +52,35 @@ pub struct Args {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    planning: PlanArgs,
 }
 
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        run(&self.task, self.frame_budget, self.json)
+        run(
+            &self.task,
+            self.frame_budget,
+            self.json,
+            &self.planning.overrides(),
+        )
     }
 }
 
-fn run(task_path: &Path, frame_budget: u32, json: bool) -> Result<(), CliError> {
+fn run(
+    task_path: &Path,
+    frame_budget: u32,
+    json: bool,
+    overrides: &Overrides,
+) -> Result<(), CliError> {
     if frame_budget == 0 {
         return Err(CliError::input(
             "--frame-budget must be at least 1 integration step",
         ));
     }
     let lt = taskfile::load(task_path)?;
-    let report = with_dims!(lt.chain.dof(), frames_n, &lt, frame_budget)?;
+    let report = with_dims!(lt.chain.dof(), frames_n, &lt, frame_budget, overrides)?;
     if json {
         println!(
             "{}",
@@ -106,8 +119,9 @@ fn run(task_path: &Path, frame_budget: u32, json: bool) -> Result<(), CliError> 
 fn frames_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     budget: u32,
+    overrides: &Overrides,
 ) -> Result<FramesJson, CliError> {
-    let config = lt.planner(HOST_CAPACITY, &Overrides::default())?;
+    let config = lt.planner(HOST_CAPACITY, overrides)?;
     let mut planner: Box<Planner<N, K, HOST_CAPACITY>> =
         Box::new(Planner::new(lt.task::<N, K>()?, config).or_input(|| "planner")?);
     let (mut frames, mut max_steps, mut max_ms, mut total_ms) = (0u64, 0u64, 0.0f64, 0.0f64);

@@ -21,6 +21,8 @@ use std::path::PathBuf;
 pub struct PlanJson {
     /// `"converged"` or `"not_converged"`.
     pub status: &'static str,
+    /// The search strategy (`"multistart"` or `"cpso"`).
+    pub strategy: &'static str,
     /// η as `a1,b1,…,aK,bK`.
     pub eta: Vec<f64>,
     /// f of the plan.
@@ -35,8 +37,12 @@ pub struct PlanJson {
     pub iterations: u32,
     /// All rollouts (C-PSO and refinement).
     pub rollouts: u32,
-    /// Rollouts of C-PSO.
-    pub swarm_rollouts: u32,
+    /// Rollouts of the search.
+    pub search_rollouts: u32,
+    /// Rollouts spent when a feasible rollout first had f ≤ σ_e (null if none did).
+    pub first_hit_rollouts: Option<u32>,
+    /// Multistart: LM starts after the first (0 for C-PSO).
+    pub restarts: u32,
     /// Rollouts stopped early because their joint-limit violation already ruled them out.
     pub abandoned_rollouts: u32,
     /// Integration steps spent (the planner's budget unit); not part of any record.
@@ -47,8 +53,8 @@ pub struct PlanJson {
     pub seed: u64,
     /// gbest's f after each completed generation (0 = initial), then the successful f.
     pub best_f_history: Vec<f64>,
-    /// f when C-PSO stopped.
-    pub swarm_f: f64,
+    /// f when the search stopped.
+    pub search_f: f64,
     /// Refinement, if it ran.
     pub refine: Option<RefineJson>,
     /// End pose of the plan (planner model).
@@ -136,7 +142,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     dir.write_json("summary.json", &summary(&task, &p.eta, &run.outcome, truth))?;
     write_bundle(lt, &dir, Some(config.seed), config.refine_tolerance)?;
     if let Some(trace) = run.trace {
-        write_figures(lt, &task, trace, Some(done.history.clone()), &dir)?;
+        write_figures(lt, &task, trace, Some(done.best_per_rollout.clone()), &dir)?;
     }
     let json = PlanJson {
         status: if converged {
@@ -144,6 +150,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
         } else {
             "not_converged"
         },
+        strategy: p.strategy.name(),
         eta: p.eta.iter().flatten().copied().collect(),
         f: p.outcome.f,
         phi: p.outcome.phi,
@@ -151,13 +158,15 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
         orientation_error_deg: p.outcome.error.orientation_deg(),
         iterations: p.iterations,
         rollouts: p.rollouts,
-        swarm_rollouts: p.swarm_rollouts,
+        search_rollouts: p.search_rollouts,
+        first_hit_rollouts: p.first_hit,
+        restarts: p.restarts,
         abandoned_rollouts: p.abandoned,
         integration_steps: done.steps,
         stagnation_events: p.stagnation_events,
         seed: config.seed,
         best_f_history: done.history,
-        swarm_f: p.swarm_f,
+        search_f: p.search_f,
         refine: p.refine.map(|r| RefineJson {
             tolerance: config.refine_tolerance.unwrap_or(f64::NAN),
             stop: stop_name(r.stop),

@@ -55,6 +55,8 @@ fn record(task_path: &Path, out: &Path, planning: &PlanArgs) -> Result<(), CliEr
         urdf_sha256: sha256_hex(lt.urdf_text.as_bytes()),
         seed: run.seed,
         refine_tolerance: run.refine_tolerance,
+        strategy: Some(run.strategy.name().into()),
+        refine_against: Some(run.refine_against.name().into()),
         build: Build::current(),
         outputs: run.outputs,
     };

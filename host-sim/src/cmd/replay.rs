@@ -10,6 +10,7 @@ use crate::error::{CliError, Context};
 use crate::records::{Build, first_difference, outputs_of, read_record, sha256_hex};
 use crate::taskfile::{self, Overrides};
 use crate::with_dims;
+use reactionless::{RefineAgainst, Strategy};
 use std::path::{Path, PathBuf};
 
 /// Re-run records and compare bit for bit; exit 1 naming the first difference.
@@ -77,9 +78,27 @@ pub fn replay(path: &Path) -> Result<(), CliError> {
         &rec.task_toml,
         &urdf_text,
     )?;
+    let strategy = match rec.strategy.as_deref() {
+        None => Strategy::Cpso,
+        Some(name) => Strategy::from_name(name).ok_or_else(|| {
+            CliError::input(format!("{}: unknown strategy {name:?}", path.display()))
+        })?,
+    };
+    let refine_against = match rec.refine_against.as_deref() {
+        None | Some("planner") => RefineAgainst::Planner,
+        Some("truth") => RefineAgainst::Truth,
+        Some(other) => {
+            return Err(CliError::input(format!(
+                "{}: unknown refine_against {other:?}",
+                path.display()
+            )));
+        }
+    };
     let overrides = Overrides {
         seed: Some(rec.seed),
         refine_tolerance: rec.refine_tolerance,
+        strategy: Some(strategy),
+        refine_against: Some(refine_against),
     };
     let now = with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
     let build = Build::current();

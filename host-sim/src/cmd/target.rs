@@ -17,6 +17,7 @@
 //!
 //! Exit 0 only when bit-identical and within budgets; 1 otherwise; 2 for bad input.
 
+use crate::args::PlanArgs;
 use crate::error::{CliError, Context};
 use crate::records::{Outputs, PoseBits, bits, first_difference, outputs_of};
 use crate::taskfile::{self, LoadedTask, Overrides};
@@ -89,7 +90,7 @@ fn repo_root() -> PathBuf {
 }
 
 /// The task block of a task file, for the flight robot.
-pub fn task_block(lt: &LoadedTask) -> Result<Vec<u8>, CliError> {
+pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, CliError> {
     if lt.chain.dof() != FLIGHT_N {
         return Err(CliError::input(format!(
             "{}: the flight image is built for {FLIGHT_N} joints; this robot has {}",
@@ -99,7 +100,7 @@ pub fn task_block(lt: &LoadedTask) -> Result<Vec<u8>, CliError> {
     }
     // Validate everything the image will validate, with the host's messages.
     let task = lt.task::<7, 4>()?;
-    let planner = lt.planner(FLIGHT_P, &Overrides::default())?;
+    let planner = lt.planner(FLIGHT_P, overrides)?;
     let block = TaskBlock::<7> {
         robot: lt.chain.desc::<7>()?,
         q0: *task.start(),
@@ -266,6 +267,7 @@ fn target_outputs(lines: &[String]) -> Result<(Outputs, u64, u64), CliError> {
         iterations: num("iterations")?,
         rollouts: num("rollouts")?,
         stagnation_events: num("stagnation")?,
+        restarts: num("restarts")?,
         eta: eta_bits
             .iter()
             .map(|b| hex(b).map(f64::from_bits))
@@ -378,18 +380,22 @@ pub struct Args {
     /// Give up on the emulation after this many seconds.
     #[arg(long, default_value_t = 1800)]
     timeout_s: u64,
+    #[command(flatten)]
+    planning: PlanArgs,
 }
 
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        run(&self.task, self.json, !self.no_build, self.timeout_s)
+        run(&self, !self.no_build)
     }
 }
 
-fn run(task_path: &Path, json: bool, build_first: bool, timeout_s: u64) -> Result<(), CliError> {
-    let lt = taskfile::load(task_path)?;
-    let block = task_block(&lt)?;
+fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
+    let (json, timeout_s) = (args.json, args.timeout_s);
+    let overrides = args.planning.overrides();
+    let lt = taskfile::load(&args.task)?;
+    let block = task_block(&lt, &overrides)?;
     let root = repo_root();
     let elf_path = if build_first {
         build(&root)?
@@ -468,8 +474,7 @@ fn run(task_path: &Path, json: bool, build_first: bool, timeout_s: u64) -> Resul
     } = instruction_stats(&log)?;
     // The same task on the host (its capacity differs from the image's 64: results do not
     // depend on it).
-    let on_host =
-        crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &Overrides::default())?.outputs;
+    let on_host = crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
     let diff = first_difference(&on_host, &on_target)
         .map(|d| format!("{}: host {}, target {}", d.what, d.first, d.second));
     let within = stack <= STACK_BUDGET && elf.static_ram <= STATIC_RAM_BUDGET;

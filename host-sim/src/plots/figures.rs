@@ -316,7 +316,7 @@ fn base_figure(d: &PlotData) -> Result<Figure, String> {
 }
 
 fn convergence_figure(history: &[f64]) -> Result<Figure, String> {
-    // Generation k + 1 produced history[k]; a log axis shows only positive values.
+    // Rollout k + 1 produced history[k]; a log axis shows only positive values.
     let points = history
         .iter()
         .enumerate()
@@ -341,8 +341,8 @@ fn convergence_figure(history: &[f64]) -> Result<Figure, String> {
         "convergence",
         (1000, 600),
         Panel {
-            title: "C-PSO convergence: best f per generation".into(),
-            x_label: "generation",
+            title: "Convergence: best f after each rollout".into(),
+            x_label: "rollouts",
             y_label: "best f (m, rad)",
             x: (1.0, n as f64),
             y: (lo, hi),

@@ -48,7 +48,7 @@ pub struct PlotData {
     pub target: [f64; 3],
     /// Base rotation angle per sample, truth model (deg).
     pub base_angle_deg: Vec<f64>,
-    /// gbest's f after each C-PSO generation (only for plans).
+    /// The best f after each rollout (only for plans).
     pub best_f_history: Option<Vec<f64>>,
 }
 

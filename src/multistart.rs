@@ -1,0 +1,878 @@
+//! The default search strategy: multistart Levenberg–Marquardt on the unit sphere of η.
+//!
+//! Owns [`LmConfig`], [`Multistart`] and [`MultistartReport`]. Like [`crate::refine`] it is
+//! an [`Optimizer`] that never runs a rollout: the planner evaluates each candidate
+//! (honouring its violation cap) and hands the evaluation back.
+//!
+//! **Unknowns.** Only η's direction matters, so the iterate `x` is a unit vector of
+//! `ℝ^{2K}` and the search runs in the `2K − 1` dimensional tangent space at `x`, spanned by
+//! the Householder basis `u_c` (the columns of `I − v vᵀ/(1 + |x_p|)`, `v = x + sgn(x_p)e_p`,
+//! `p = argmax |x_i|`, column `p` left out). A tangent step `δ` becomes the ambient step
+//! `s = Σ δ_c u_c` and the new iterate `(x + s)/‖x + s‖`.
+//!
+//! **Residual.** `r = [e; w·p]` (`6 + N` rows): the pose error `e` of spec §6 and, per joint
+//! `j`, `p_j = max(0, q_max,j − (hi_j − m)) + max(0, (lo_j + m) − q_min,j)`, the joint-limit
+//! excess beyond a margin `m` inside the limits ([`LmConfig::penalty_weight`] `w`,
+//! [`LmConfig::margin`] `m`). With `w = 0` the rows are left out and a trial with `Φ > 0` is
+//! rejected instead.
+//!
+//! **One LM start.**
+//! 1. Jacobian of `r` along the `2K − 1` tangent directions by forward differences
+//!    (`h` = [`LmConfig::fd_step`]), kept as an ambient matrix `J` (`J x = 0`).
+//! 2. Step `(J_tᵀJ_t + λ·d_max·I) δ = −J_tᵀ r`, `J_t = J U`, `d_max` = the largest diagonal
+//!    entry of `J_tᵀJ_t`; `λ` starts at [`LmConfig::lambda0`].
+//! 3. One trial rollout at the new iterate. Accepted iff `‖r‖²` decreases; then
+//!    `λ ← λ·max(1/3, 1 − (2ρ − 1)³)` (Nielsen; `ρ` = actual / predicted decrease), else
+//!    `λ ← λ·ν, ν ← 2ν`.
+//! 4. With [`LmConfig::broyden`], every trial (accepted or not) corrects `J` by the rank-1
+//!    Broyden update `J ← J + (Δr − J s) sᵀ/(sᵀs)`, and the next trial follows from the
+//!    corrected `J` without new differences; with [`LmConfig::refresh`] each iteration also
+//!    re-differences one tangent direction (cycling), a rank-1 update too. A full rebuild
+//!    (step 1) happens after [`LmConfig::rebuild_after`] consecutive rejections on a
+//!    corrected `J`, or when the step cannot be computed. Without Broyden every accepted
+//!    step is followed by a full rebuild.
+//!
+//! **Restarts.** A start is dropped when `‖r‖` has not fallen below
+//! [`LmConfig::shrink`] times its value at the last checkpoint within `patience` rollouts
+//! (the checkpoint moves every time it does; [`LmConfig::patience`] while `‖r‖ > σ_e`,
+//! [`LmConfig::refine_patience`] after), or when `λ` exceeds `1e10`, or the step is
+//! below `1e-15`, on a freshly built `J`. Starts come from screening batches: a batch draws
+//! [`LmConfig::screen`] directions and evaluates them, and the best
+//! [`LmConfig::starts_per_screen`] of them (smallest `‖r‖`, in order) are started one after
+//! the other; then a new batch is drawn.
+//!
+//! **Randomness.** Only the screening batches draw: `2K` uniforms per candidate
+//! (`2u − 1`, components in the order a₁, b₁, …, a_K, b_K), candidates in order, a batch
+//! when it starts (the first one in [`Multistart::new`]). Nothing else is random, so the
+//! same seed and the same outcomes give the same bits.
+//!
+//! **Termination.** Done when an evaluated rollout (any kind: screening, difference,
+//! trial) has `Φ = 0` and `f ≤ tolerance` (converged, and that η is [`Multistart::best`]),
+//! or when [`LmConfig::max_rollouts`] rollouts have been told (not converged; the best
+//! feasible rollout so far, or the least violating). Every `tell` counts one rollout, so the
+//! work is bounded by `max_rollouts` rollouts plus `O((2K)³)` arithmetic per `tell`.
+//! The first rollout with `Φ = 0` and `f ≤ σ_e` is recorded ([`MultistartReport::first_hit`])
+//! so one run can be measured against both σ_e and a refinement tolerance.
+
+use crate::error::{Error, Param};
+use crate::model::Robot;
+use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
+use crate::random::Stream;
+use crate::refine::solve_spd_in_place;
+use crate::rollout::Outcome;
+
+/// Largest `2K` (K ≤ 9 for N ≤ 12).
+pub const MAX_DIM: usize = 18;
+/// Largest residual length `6 + N`.
+pub const MAX_ROWS: usize = 18;
+/// Largest screening batch.
+pub const MAX_SCREEN: usize = 16;
+/// Damping at which a start counts as stalled.
+const LAMBDA_MAX: f64 = 1e10;
+/// Smallest damping.
+const LAMBDA_MIN: f64 = 1e-15;
+/// Tangent steps below this norm count as stalled.
+const STEP_MIN: f64 = 1e-15;
+
+/// Settings of the multistart LM.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LmConfig {
+    /// Total rollout budget (≥ 1).
+    pub max_rollouts: u32,
+    /// σ_e: the first feasible rollout with `f ≤ sigma_e` is recorded.
+    pub sigma_e: f64,
+    /// Directions per screening batch (`1..=MAX_SCREEN`).
+    pub screen: u32,
+    /// LM starts taken from each batch (`1..=screen`).
+    pub starts_per_screen: u32,
+    /// Rank-1 Broyden corrections between full difference Jacobians.
+    pub broyden: bool,
+    /// With Broyden: re-difference one tangent direction per iteration.
+    pub refresh: bool,
+    /// With Broyden: consecutive rejected trials before a full rebuild (≥ 1).
+    pub rebuild_after: u32,
+    /// Weight `w` of the joint-limit rows (0: no rows; violating trials are rejected).
+    pub penalty_weight: f64,
+    /// Margin `m` inside the limits where the rows start (rad, ≥ 0).
+    pub margin: f64,
+    /// Initial damping, relative to the largest diagonal entry of `J_tᵀJ_t`.
+    pub lambda0: f64,
+    /// Rollouts without progress before a start is dropped while its `‖r‖ > σ_e`
+    /// (0: `2(2K − 1) + 8`).
+    pub patience: u32,
+    /// The same once the start has reached `‖r‖ ≤ σ_e` (0: `4(2K − 1) + 8`): a start near a
+    /// solution gets longer to refine.
+    pub refine_patience: u32,
+    /// Progress means `‖r‖` falls below `shrink` times its checkpoint value (`0 < shrink < 1`).
+    pub shrink: f64,
+    /// Forward-difference step on the unit sphere.
+    pub fd_step: f64,
+}
+
+impl LmConfig {
+    /// The settings measured in issue #11.
+    #[must_use]
+    pub const fn reference() -> Self {
+        Self {
+            max_rollouts: 8040,
+            sigma_e: 0.05,
+            screen: 8,
+            starts_per_screen: 2,
+            broyden: true,
+            refresh: false,
+            rebuild_after: 2,
+            penalty_weight: 1.0,
+            margin: 0.005,
+            lambda0: 1e-3,
+            patience: 0,
+            refine_patience: 0,
+            shrink: 0.5,
+            fd_step: 1e-7,
+        }
+    }
+
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// The first bad setting.
+    pub fn validate(&self) -> Result<(), Error> {
+        if self.max_rollouts == 0 {
+            return Err(Error::NotPositive(Param::RefineRollouts));
+        }
+        let positive = [self.sigma_e, self.lambda0, self.fd_step, self.shrink];
+        if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) || self.shrink >= 1.0 {
+            return Err(Error::NotPositive(Param::RefineTolerance));
+        }
+        let non_negative = [self.penalty_weight, self.margin];
+        if non_negative.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(Error::NotPositive(Param::RefineTolerance));
+        }
+        if self.screen == 0
+            || self.screen as usize > MAX_SCREEN
+            || self.starts_per_screen == 0
+            || self.starts_per_screen > self.screen
+            || self.rebuild_after == 0
+        {
+            return Err(Error::NotPositive(Param::RefineRollouts));
+        }
+        Ok(())
+    }
+}
+
+/// What the multistart did so far.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MultistartReport {
+    /// Rollouts told.
+    pub rollouts: u32,
+    /// LM starts begun.
+    pub starts: u32,
+    /// Screening batches drawn.
+    pub screens: u32,
+    /// Full difference Jacobians completed.
+    pub jacobians: u32,
+    /// Accepted LM steps.
+    pub accepted: u32,
+    /// Rollout count at the first feasible rollout with `f ≤ σ_e`.
+    pub first_hit: Option<u32>,
+    /// A feasible rollout with `f ≤ tolerance` was evaluated.
+    pub converged: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// Evaluating screening candidate `i`.
+    Screen(usize),
+    /// Full Jacobian, tangent direction `c`.
+    Column(usize),
+    /// One re-differenced tangent direction `c`.
+    Refresh(usize),
+    /// The trial point.
+    Trial,
+    /// Finished.
+    Done,
+}
+
+type Col = [f64; MAX_DIM];
+type Res = [f64; MAX_ROWS];
+
+/// The multistart state (fixed size).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Multistart<const N: usize, const K: usize> {
+    config: LmConfig,
+    tolerance: f64,
+    patience: u32,
+    refine_patience: u32,
+    lower: [f64; N],
+    upper: [f64; N],
+    phase: Phase,
+    pool: [Col; MAX_SCREEN],
+    pool_r: [Res; MAX_SCREEN],
+    pool_merit: [f64; MAX_SCREEN],
+    pool_used: [bool; MAX_SCREEN],
+    pool_starts: u32,
+    x: Col,
+    r: Res,
+    merit: f64,
+    jac: [Col; MAX_ROWS],
+    stale: u32,
+    lambda: f64,
+    nu: f64,
+    rejects: u32,
+    cursor: usize,
+    trial: Col,
+    step: Col,
+    pred: f64,
+    ref_merit: f64,
+    ref_rollout: u32,
+    report: MultistartReport,
+    best_eta: [[f64; 2]; K],
+    best: Option<Outcome<N>>,
+    /// Scratch of each step's solve (not state: rebuilt every time): `J_t = J U`.
+    jt: [Col; MAX_ROWS],
+    /// Scratch: `J_tᵀJ_t + λ d_max I`, then its Cholesky factor.
+    a: [Col; MAX_DIM],
+}
+
+impl<const N: usize, const K: usize> Multistart<N, K> {
+    const D: usize = 2 * K;
+    const FITS: () = assert!(2 * K <= MAX_DIM && 6 + N <= MAX_ROWS && K >= 1);
+
+    /// No search (a placeholder, `const`, for statically allocated planners).
+    pub const IDLE: Self = Self {
+        config: LmConfig::reference(),
+        tolerance: 0.05,
+        patience: 0,
+        refine_patience: 0,
+        lower: [0.0; N],
+        upper: [0.0; N],
+        phase: Phase::Done,
+        pool: [[0.0; MAX_DIM]; MAX_SCREEN],
+        pool_r: [[0.0; MAX_ROWS]; MAX_SCREEN],
+        pool_merit: [f64::INFINITY; MAX_SCREEN],
+        pool_used: [false; MAX_SCREEN],
+        pool_starts: 0,
+        x: [0.0; MAX_DIM],
+        r: [0.0; MAX_ROWS],
+        merit: f64::INFINITY,
+        jac: [[0.0; MAX_DIM]; MAX_ROWS],
+        stale: 0,
+        lambda: 1e-3,
+        nu: 2.0,
+        rejects: 0,
+        cursor: 0,
+        trial: [0.0; MAX_DIM],
+        step: [0.0; MAX_DIM],
+        pred: 0.0,
+        ref_merit: f64::INFINITY,
+        ref_rollout: 0,
+        report: MultistartReport {
+            rollouts: 0,
+            starts: 0,
+            screens: 0,
+            jacobians: 0,
+            accepted: 0,
+            first_hit: None,
+            converged: false,
+        },
+        best_eta: [[0.0; 2]; K],
+        best: None,
+        jt: [[0.0; MAX_DIM]; MAX_ROWS],
+        a: [[0.0; MAX_DIM]; MAX_DIM],
+    };
+
+    /// Starts a search with the limits of `robot`, stopping at `f ≤ tolerance` (> 0); draws
+    /// the first screening batch from `stream`.
+    ///
+    /// # Errors
+    /// A bad setting or tolerance.
+    pub fn new(
+        config: &LmConfig,
+        robot: &Robot<N>,
+        tolerance: f64,
+        stream: &mut Stream,
+    ) -> Result<Self, Error> {
+        let mut s = Self::IDLE;
+        s.reset(config, robot, tolerance, stream)?;
+        Ok(s)
+    }
+
+    /// [`Multistart::new`] in place (no search-sized temporaries: flight software keeps the
+    /// planner in static memory).
+    ///
+    /// # Errors
+    /// As [`Multistart::new`]; the search is then finished with nothing found.
+    pub fn reset(
+        &mut self,
+        config: &LmConfig,
+        robot: &Robot<N>,
+        tolerance: f64,
+        stream: &mut Stream,
+    ) -> Result<(), Error> {
+        let () = Self::FITS;
+        self.phase = Phase::Done;
+        config.validate()?;
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            return Err(Error::NotPositive(Param::Tolerance));
+        }
+        let tangent = (Self::D - 1) as u32;
+        self.patience = if config.patience == 0 {
+            2 * tangent + 8
+        } else {
+            config.patience
+        };
+        self.refine_patience = if config.refine_patience == 0 {
+            4 * tangent + 8
+        } else {
+            config.refine_patience
+        };
+        self.config = *config;
+        self.tolerance = tolerance;
+        self.lower = *robot.lower();
+        self.upper = *robot.upper();
+        for p in &mut self.pool {
+            *p = [0.0; MAX_DIM];
+        }
+        for r in &mut self.pool_r {
+            *r = [0.0; MAX_ROWS];
+        }
+        self.pool_merit = [f64::INFINITY; MAX_SCREEN];
+        self.pool_used = [false; MAX_SCREEN];
+        self.pool_starts = 0;
+        self.x = [0.0; MAX_DIM];
+        self.r = [0.0; MAX_ROWS];
+        self.merit = f64::INFINITY;
+        for row in &mut self.jac {
+            *row = [0.0; MAX_DIM];
+        }
+        self.stale = 0;
+        self.lambda = config.lambda0;
+        self.nu = 2.0;
+        self.rejects = 0;
+        self.cursor = 0;
+        self.trial = [0.0; MAX_DIM];
+        self.step = [0.0; MAX_DIM];
+        self.pred = 0.0;
+        self.ref_merit = f64::INFINITY;
+        self.ref_rollout = 0;
+        self.report = MultistartReport {
+            rollouts: 0,
+            starts: 0,
+            screens: 0,
+            jacobians: 0,
+            accepted: 0,
+            first_hit: None,
+            converged: false,
+        };
+        self.best_eta = [[0.0; 2]; K];
+        self.best = None;
+        self.draw_batch(stream);
+        Ok(())
+    }
+
+    /// The next η to evaluate and its violation cap (`∞`: evaluate to the end). Once
+    /// finished it returns the best η.
+    #[must_use]
+    fn ask(&self) -> ([[f64; 2]; K], f64) {
+        let cap = f64::INFINITY;
+        match self.phase {
+            Phase::Screen(i) => (to_eta(self.pool.get(i).unwrap_or(&self.x)), cap),
+            Phase::Column(c) | Phase::Refresh(c) => {
+                let u = self.tangent(c);
+                let mut p = self.x;
+                for (v, d) in p.iter_mut().zip(u.iter()) {
+                    *v += self.config.fd_step * d;
+                }
+                (to_eta(&p), cap)
+            }
+            Phase::Trial => (to_eta(&self.trial), self.trial_cap()),
+            Phase::Done => (self.best_eta, cap),
+        }
+    }
+
+    /// The violation cap of a trial: without penalty rows a violating trial is rejected
+    /// anyway (cap 0); with them, `Φ > √N‖r‖/w` implies `‖r_trial‖ > ‖r‖` (rejected).
+    fn trial_cap(&self) -> f64 {
+        let w = self.config.penalty_weight;
+        if w == 0.0 {
+            0.0
+        } else {
+            libm::sqrt(N as f64 * self.merit) / w * (1.0 + 1e-9)
+        }
+    }
+
+    /// Takes the outcome of the last asked η (`None`: the rollout failed or was abandoned at
+    /// its violation cap). Draws from `stream` only when a new screening batch starts.
+    /// `false` once finished.
+    fn tell(&mut self, result: Option<&Outcome<N>>, stream: &mut Stream) -> bool {
+        if self.phase == Phase::Done {
+            return false;
+        }
+        self.report.rollouts = self.report.rollouts.saturating_add(1);
+        if let Some(o) = result {
+            let (eta, _) = self.ask();
+            self.observe(&eta, o);
+            if self.report.converged {
+                self.phase = Phase::Done;
+                return false;
+            }
+        }
+        let valid = result.filter(|o| self.config.penalty_weight > 0.0 || o.phi == 0.0);
+        match self.phase {
+            Phase::Screen(i) => {
+                let (res, m) = match valid {
+                    Some(o) => {
+                        let res = self.residual(o);
+                        (res, norm2(&res))
+                    }
+                    None => ([0.0; MAX_ROWS], f64::INFINITY),
+                };
+                if let Some(slot) = self.pool_r.get_mut(i) {
+                    *slot = res;
+                }
+                if let Some(slot) = self.pool_merit.get_mut(i) {
+                    *slot = if m.is_finite() { m } else { f64::INFINITY };
+                }
+                if i + 1 < self.config.screen as usize {
+                    self.phase = Phase::Screen(i + 1);
+                } else {
+                    self.start_next(stream);
+                }
+            }
+            Phase::Column(c) => {
+                if c == 0 {
+                    self.jac = [[0.0; MAX_DIM]; MAX_ROWS];
+                }
+                self.difference(c, result);
+                if c + 2 < Self::D {
+                    self.phase = Phase::Column(c + 1);
+                } else {
+                    self.report.jacobians += 1;
+                    self.stale = 0;
+                    self.rejects = 0;
+                    self.plan_trial(stream);
+                }
+            }
+            Phase::Refresh(c) => {
+                self.difference(c, result);
+                self.stale += 1;
+                self.plan_trial(stream);
+            }
+            Phase::Trial => self.judge(valid, stream),
+            Phase::Done => {}
+        }
+        if self.phase != Phase::Done && self.report.rollouts >= self.config.max_rollouts {
+            self.phase = Phase::Done;
+        }
+        self.phase != Phase::Done
+    }
+
+    /// The best rollout so far (feasible with the smallest f, else the least violating).
+    #[must_use]
+    pub fn best(&self) -> Option<(&[[f64; 2]; K], &Outcome<N>)> {
+        self.best.as_ref().map(|o| (&self.best_eta, o))
+    }
+
+    /// Counters and events so far.
+    #[must_use]
+    pub fn report(&self) -> MultistartReport {
+        self.report
+    }
+
+    /// `true` once finished.
+    #[must_use]
+    pub fn done(&self) -> bool {
+        self.phase == Phase::Done
+    }
+
+    /// Best-so-far bookkeeping, σ_e first hit and convergence for one evaluated rollout.
+    fn observe(&mut self, eta: &[[f64; 2]; K], o: &Outcome<N>) {
+        let feasible = o.phi == 0.0;
+        if feasible && o.f <= self.config.sigma_e && self.report.first_hit.is_none() {
+            self.report.first_hit = Some(self.report.rollouts);
+        }
+        let better = match &self.best {
+            None => true,
+            Some(b) => match (feasible, b.phi == 0.0) {
+                (true, true) => o.f < b.f,
+                (true, false) => true,
+                (false, true) => false,
+                (false, false) => o.phi < b.phi,
+            },
+        };
+        if better && o.f.is_finite() {
+            self.best = Some(*o);
+            self.best_eta = *eta;
+        }
+        if feasible && o.f <= self.tolerance {
+            self.report.converged = true;
+        }
+    }
+
+    /// `r = [e; w·p]`.
+    fn residual(&self, o: &Outcome<N>) -> Res {
+        let mut r = [0.0; MAX_ROWS];
+        for (v, e) in r.iter_mut().zip(o.error.to_array().iter()) {
+            *v = *e;
+        }
+        let (w, m) = (self.config.penalty_weight, self.config.margin);
+        if w > 0.0 {
+            let limits = self.lower.iter().zip(self.upper.iter());
+            let extrema = o.joint_min.iter().zip(o.joint_max.iter());
+            for (v, ((lo, hi), (mn, mx))) in r.iter_mut().skip(6).zip(limits.zip(extrema)) {
+                *v = w * ((mx - (hi - m)).max(0.0) + ((lo + m) - mn).max(0.0));
+            }
+        }
+        r
+    }
+
+    /// The draws of one screening batch (normalised directions); phase → `Screen(0)`.
+    fn draw_batch(&mut self, stream: &mut Stream) {
+        let d = Self::D;
+        for (p, used) in self
+            .pool
+            .iter_mut()
+            .zip(self.pool_used.iter_mut())
+            .take(self.config.screen as usize)
+        {
+            *p = [0.0; MAX_DIM];
+            for v in p.iter_mut().take(d) {
+                *v = 2.0 * stream.uniform() - 1.0;
+            }
+            normalise(p);
+            *used = false;
+        }
+        self.pool_merit = [f64::INFINITY; MAX_SCREEN];
+        self.pool_starts = 0;
+        self.report.screens += 1;
+        self.phase = Phase::Screen(0);
+    }
+
+    /// Begins the next LM start from the current batch, or draws a new batch.
+    fn start_next(&mut self, stream: &mut Stream) {
+        let mut pick: Option<usize> = None;
+        if self.pool_starts < self.config.starts_per_screen {
+            let mut best = f64::INFINITY;
+            for (i, (m, used)) in self
+                .pool_merit
+                .iter()
+                .zip(self.pool_used.iter())
+                .take(self.config.screen as usize)
+                .enumerate()
+            {
+                if !used && *m < best {
+                    best = *m;
+                    pick = Some(i);
+                }
+            }
+        }
+        let Some(i) = pick else {
+            self.draw_batch(stream);
+            return;
+        };
+        if let Some(u) = self.pool_used.get_mut(i) {
+            *u = true;
+        }
+        self.pool_starts += 1;
+        self.report.starts += 1;
+        self.x = self.pool.get(i).copied().unwrap_or([0.0; MAX_DIM]);
+        self.r = self.pool_r.get(i).copied().unwrap_or([0.0; MAX_ROWS]);
+        self.merit = self.pool_merit.get(i).copied().unwrap_or(f64::INFINITY);
+        self.lambda = self.config.lambda0;
+        self.nu = 2.0;
+        self.rejects = 0;
+        self.cursor = 0;
+        self.stale = 0;
+        self.ref_merit = self.merit;
+        self.ref_rollout = self.report.rollouts;
+        self.phase = Phase::Column(0);
+    }
+
+    /// Tangent direction `c` (`0..2K−1`) at `x`: column `c'` of the Householder matrix, `c'`
+    /// skipping the pivot.
+    fn tangent(&self, c: usize) -> Col {
+        let d = Self::D;
+        let mut p = 0;
+        let mut big = -1.0;
+        for (i, v) in self.x.iter().take(d).enumerate() {
+            if libm::fabs(*v) > big {
+                big = libm::fabs(*v);
+                p = i;
+            }
+        }
+        let xp = self.x.get(p).copied().unwrap_or(1.0);
+        let mut v = self.x;
+        if let Some(vp) = v.get_mut(p) {
+            *vp += libm::copysign(1.0, xp);
+        }
+        let col = if c < p { c } else { c + 1 };
+        let vc = v.get(col).copied().unwrap_or(0.0);
+        let scale = vc / (1.0 + libm::fabs(xp));
+        let mut u = [0.0; MAX_DIM];
+        for (i, (ui, vi)) in u.iter_mut().zip(v.iter()).take(d).enumerate() {
+            *ui = if i == col { 1.0 } else { 0.0 } - scale * vi;
+        }
+        u
+    }
+
+    /// Rank-1 update of `J` from the difference along tangent direction `c`:
+    /// `J ← J + (y − J u) uᵀ`, `y = (r(x + h u) − r(x))/h` (no update if it failed).
+    fn difference(&mut self, c: usize, result: Option<&Outcome<N>>) {
+        let Some(o) = result else { return };
+        let rp = self.residual(o);
+        let h = self.config.fd_step;
+        let u = self.tangent(c);
+        let mut y = [0.0; MAX_ROWS];
+        for ((y, a), b) in y.iter_mut().zip(rp.iter()).zip(self.r.iter()) {
+            *y = (a - b) / h;
+        }
+        self.rank1(&y, &u, 1.0);
+    }
+
+    /// `J ← J + (y − J s) sᵀ / ss`.
+    fn rank1(&mut self, y: &Res, s: &Col, ss: f64) {
+        if !(ss > 0.0 && ss.is_finite() && y.iter().all(|v| v.is_finite())) {
+            return;
+        }
+        for (row, yi) in self.jac.iter_mut().zip(y.iter()) {
+            let js = dot(row, s);
+            let k = (yi - js) / ss;
+            for (j, sj) in row.iter_mut().zip(s.iter()) {
+                *j += k * sj;
+            }
+        }
+    }
+
+    /// Decides a trial; plans the next rollout.
+    fn judge(&mut self, valid: Option<&Outcome<N>>, stream: &mut Stream) {
+        let mut accepted = false;
+        if let Some(o) = valid {
+            let rt = self.residual(o);
+            let mt = norm2(&rt);
+            if self.config.broyden {
+                let mut y = [0.0; MAX_ROWS];
+                for ((y, a), b) in y.iter_mut().zip(rt.iter()).zip(self.r.iter()) {
+                    *y = a - b;
+                }
+                let s = self.step;
+                self.rank1(&y, &s, dot(&s, &s));
+                self.stale += 1;
+            }
+            if mt < self.merit {
+                accepted = true;
+                let rho = if self.pred > 0.0 {
+                    (self.merit - mt) / self.pred
+                } else {
+                    0.0
+                };
+                let t = 2.0 * rho - 1.0;
+                let factor = (1.0 - t * t * t).max(1.0 / 3.0);
+                self.lambda = (self.lambda * factor).max(LAMBDA_MIN);
+                self.nu = 2.0;
+                self.rejects = 0;
+                self.x = self.trial;
+                self.r = rt;
+                self.merit = mt;
+                self.report.accepted += 1;
+                if libm::sqrt(mt) <= self.config.shrink * libm::sqrt(self.ref_merit) {
+                    self.ref_merit = mt;
+                    self.ref_rollout = self.report.rollouts;
+                }
+            }
+        }
+        if self.out_of_patience() {
+            self.start_next(stream);
+            return;
+        }
+        if accepted {
+            if !self.config.broyden {
+                self.phase = Phase::Column(0);
+            } else if self.config.refresh {
+                let c = self.cursor % (Self::D - 1);
+                self.cursor = self.cursor.wrapping_add(1);
+                self.phase = Phase::Refresh(c);
+            } else {
+                self.plan_trial(stream);
+            }
+            return;
+        }
+        self.lambda *= self.nu;
+        self.nu *= 2.0;
+        self.rejects += 1;
+        if self.config.broyden && self.stale > 0 && self.rejects >= self.config.rebuild_after {
+            self.phase = Phase::Column(0);
+        } else {
+            self.plan_trial(stream);
+        }
+    }
+
+    /// No checkpoint progress for longer than the patience that applies.
+    fn out_of_patience(&self) -> bool {
+        let sigma = self.config.sigma_e;
+        let limit = if self.merit <= sigma * sigma {
+            self.refine_patience
+        } else {
+            self.patience
+        };
+        self.report.rollouts.saturating_sub(self.ref_rollout) > limit
+    }
+
+    /// Drops the start after a stall, or rebuilds `J` first if it is a corrected one.
+    fn stalled(&mut self, stream: &mut Stream) {
+        if self.stale > 0 {
+            self.lambda = self.config.lambda0;
+            self.nu = 2.0;
+            self.phase = Phase::Column(0);
+        } else {
+            self.start_next(stream);
+        }
+    }
+
+    /// Computes the trial point from `J`, `r`, λ; phase → `Trial` (or a stall).
+    fn plan_trial(&mut self, stream: &mut Stream) {
+        if self.out_of_patience() {
+            self.start_next(stream);
+            return;
+        }
+        if self.lambda > LAMBDA_MAX {
+            self.stalled(stream);
+            return;
+        }
+        let m = Self::D - 1;
+        // J_t = J U (rows × m), tangent directions as columns; kept in the struct (like A
+        // below) so that the 18×18 scratch matrices live in static memory, not the stack.
+        for row in &mut self.jt {
+            *row = [0.0; MAX_DIM];
+        }
+        for c in 0..m {
+            let uc = self.tangent(c);
+            for (jt_row, j_row) in self.jt.iter_mut().zip(self.jac.iter()) {
+                if let Some(v) = jt_row.get_mut(c) {
+                    *v = dot(j_row, &uc);
+                }
+            }
+        }
+        // A = J_tᵀ J_t, g = J_tᵀ r; unused dimensions get a unit diagonal.
+        for row in &mut self.a {
+            *row = [0.0; MAX_DIM];
+        }
+        let mut g = [0.0; MAX_DIM];
+        for (jt_row, ri) in self.jt.iter().zip(self.r.iter()) {
+            for (i, (ai, gi)) in self.a.iter_mut().zip(g.iter_mut()).enumerate().take(m) {
+                let ji = jt_row.get(i).copied().unwrap_or(0.0);
+                *gi -= ji * ri;
+                for (aij, jj) in ai.iter_mut().zip(jt_row.iter()).take(m) {
+                    *aij += ji * jj;
+                }
+            }
+        }
+        let mut dmax = 0.0f64;
+        for (i, ai) in self.a.iter().enumerate().take(m) {
+            dmax = dmax.max(ai.get(i).copied().unwrap_or(0.0));
+        }
+        if !(dmax > 0.0 && dmax.is_finite()) {
+            self.stalled(stream);
+            return;
+        }
+        let damping = self.lambda * dmax;
+        for (i, ai) in self.a.iter_mut().enumerate() {
+            if let Some(v) = ai.get_mut(i) {
+                *v += if i < m { damping } else { 1.0 };
+            }
+        }
+        let Some(delta) = solve_spd_in_place(&mut self.a, &g) else {
+            self.stalled(stream);
+            return;
+        };
+        let norm = libm::sqrt(dot(&delta, &delta));
+        if !(norm >= STEP_MIN && norm.is_finite()) {
+            self.stalled(stream);
+            return;
+        }
+        // Predicted ‖r‖² after the step: ‖r + J_t δ‖².
+        let mut predicted = 0.0;
+        for (jt_row, ri) in self.jt.iter().zip(self.r.iter()) {
+            let v = ri + dot(jt_row, &delta);
+            predicted += v * v;
+        }
+        self.pred = self.merit - predicted;
+        let mut s = [0.0; MAX_DIM];
+        for (c, dc) in delta.iter().enumerate().take(m) {
+            let uc = self.tangent(c);
+            for (si, ui) in s.iter_mut().zip(uc.iter()) {
+                *si += dc * ui;
+            }
+        }
+        let mut t = self.x;
+        for (ti, si) in t.iter_mut().zip(s.iter()) {
+            *ti += si;
+        }
+        normalise(&mut t);
+        self.step = s;
+        self.trial = t;
+        self.phase = Phase::Trial;
+    }
+}
+
+fn dot(a: &[f64; MAX_DIM], b: &[f64; MAX_DIM]) -> f64 {
+    a.iter().zip(b.iter()).fold(0.0, |s, (x, y)| s + x * y)
+}
+
+fn norm2(r: &Res) -> f64 {
+    r.iter().fold(0.0, |s, v| s + v * v)
+}
+
+impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
+    fn candidate(&self) -> Candidate<K> {
+        let (eta, cap) = self.ask();
+        Candidate::plain(eta, cap)
+    }
+
+    /// A finished rollout is an outcome; an abandoned or failed one counts like a failed
+    /// rollout (`None`).
+    fn absorb<O: Observer>(
+        &mut self,
+        evaluation: &Evaluation<N>,
+        stream: &mut Stream,
+        _: &mut O,
+    ) -> Next {
+        if self.tell(evaluation.outcome(), stream) {
+            Next::Continue
+        } else if self.report.converged {
+            Next::Done(Stop::Converged)
+        } else {
+            Next::Done(Stop::Exhausted)
+        }
+    }
+
+    /// Accepted LM steps, and the LM start in progress.
+    fn progress(&self) -> (u32, u32) {
+        (self.report.accepted, self.report.starts)
+    }
+}
+
+/// Scales to unit length (a zero vector becomes `e_0`).
+fn normalise(v: &mut Col) {
+    let n = libm::sqrt(v.iter().fold(0.0, |s, x| s + x * x));
+    if n > 0.0 && n.is_finite() {
+        for x in v.iter_mut() {
+            *x /= n;
+        }
+    } else {
+        *v = [0.0; MAX_DIM];
+        if let Some(x) = v.first_mut() {
+            *x = 1.0;
+        }
+    }
+}
+
+fn to_eta<const K: usize>(v: &Col) -> [[f64; 2]; K] {
+    let mut eta = [[0.0; 2]; K];
+    for (pair, chunk) in eta.iter_mut().zip(v.chunks_exact(2)) {
+        if let [a, b] = chunk {
+            *pair = [*a, *b];
+        }
+    }
+    eta
+}

@@ -119,15 +119,19 @@ pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
         .ok_or_else(|| format!("'{s}' is not a strategy (expected multistart or cpso)"))
 }
 
+/// A comma-separated list of strategies.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Strategies(pub Vec<Strategy>);
+
 /// Parses a comma-separated list of strategies (clap value parser); no repeats.
-pub fn parse_strategies(s: &str) -> Result<Vec<Strategy>, String> {
+pub fn parse_strategies(s: &str) -> Result<Strategies, String> {
     let list: Vec<Strategy> = s.split(',').map(parse_strategy).collect::<Result<_, _>>()?;
     for (i, a) in list.iter().enumerate() {
         if list.iter().skip(i + 1).any(|b| b == a) {
             return Err(format!("strategy {} appears twice in '{s}'", a.name()));
         }
     }
-    Ok(list)
+    Ok(Strategies(list))
 }
 
 /// Parses `planner` or `truth` (clap value parser).

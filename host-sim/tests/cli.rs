@@ -707,3 +707,104 @@ fn bad_robot_files_are_named_through_the_task() {
             .contains("/nonexistent/task.toml: cannot read task file")
     );
 }
+
+/// Every subcommand that plans takes `--strategy` (campaign a list) and `--refine-against`
+/// where it refines: the flags parse into their fields (a missing task file is then the
+/// error, exit 2, not a panic), and a bad strategy names the flag.
+/// Verifies RL-PLAN-009, RL-SIM-CLI-001.
+#[test]
+fn every_planning_subcommand_takes_the_strategy() {
+    let tmp = tempfile::tempdir().unwrap();
+    let missing = tmp.path().join("missing.toml");
+    let out = tmp.path().join("out");
+    let m = missing.to_str().unwrap();
+    let o = out.to_str().unwrap();
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "plan",
+            m,
+            "--out",
+            o,
+            "--strategy",
+            "cpso",
+            "--refine-against",
+            "truth",
+        ],
+        vec![
+            "record",
+            m,
+            "--out",
+            o,
+            "--strategy",
+            "multistart",
+            "--refine-against",
+            "planner",
+        ],
+        vec!["frames", m, "--frame-budget", "10", "--strategy", "cpso"],
+        vec![
+            "target",
+            m,
+            "--no-build",
+            "--strategy",
+            "cpso",
+            "--refine-against",
+            "truth",
+        ],
+        vec!["bench", m, "--strategy", "multistart"],
+        vec![
+            "campaign",
+            m,
+            "--seeds",
+            "1",
+            "--out",
+            o,
+            "--strategy",
+            "cpso,multistart",
+            "--refine-against",
+            "truth",
+        ],
+    ];
+    for args in cases {
+        let r = host_sim().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("missing.toml"), "{args:?}: {err}");
+    }
+    let r = host_sim()
+        .args(["plan", m, "--out", o, "--strategy", "pso"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(
+        err.contains("--strategy") && err.contains("multistart or cpso"),
+        "{err}"
+    );
+}
+
+/// A campaign compares strategies: one row per (task, strategy, seed), an overview row
+/// per strategy and robot.
+/// Verifies RL-SIM-CAMP-001, RL-PLAN-009.
+#[test]
+fn a_campaign_compares_strategies() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("c");
+    let task = root().join("tests/records/tasks/arm6/task_002.toml");
+    let r = host_sim()
+        .arg("campaign")
+        .arg(&task)
+        .args(["--seeds", "1,2", "--strategy", "cpso,multistart", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4);
+    assert_eq!(csv.matches(",cpso,").count(), 2);
+    assert_eq!(csv.matches(",multistart,").count(), 2);
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        md.contains("| cpso · arm6 |") && md.contains("| multistart · arm6 |"),
+        "{md}"
+    );
+}

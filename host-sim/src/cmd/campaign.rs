@@ -7,7 +7,7 @@
 //! overall: success rate, and median / p90 / max of iterations, rollouts, f, base
 //! disturbance and wall time) atomically.
 
-use crate::args::{parse_refine_against, parse_seeds, parse_strategies};
+use crate::args::{Strategies, parse_refine_against, parse_seeds, parse_strategies};
 use crate::artifacts::write_rollout;
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
@@ -244,7 +244,7 @@ pub struct Args {
     seeds: Seeds,
     /// Strategies to compare, comma-separated (default: each task's `[planner] strategy`).
     #[arg(long, value_parser = parse_strategies)]
-    strategy: Option<Vec<Strategy>>,
+    strategy: Option<Strategies>,
     /// Refine until f ≤ this (overrides `[planner] refine_tolerance`).
     #[arg(long)]
     refine_tolerance: Option<f64>,
@@ -273,7 +273,7 @@ impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
         let strategies: Vec<Option<Strategy>> = match &self.strategy {
-            Some(list) => list.iter().copied().map(Some).collect(),
+            Some(list) => list.0.iter().copied().map(Some).collect(),
             None => vec![None],
         };
         let base = Overrides {

@@ -11,7 +11,7 @@ for set in a:101 b:202; do
   name=${set%%:*}; seed=${set##*:}
   while read -r robot urdf start; do
     [ -z "$robot" ] && continue
-    "$H" generate --urdf "$urdf" --ee ee --start-deg="$start" --count 20 --seed "$seed" \
+    "$H" generate --urdf "$urdf" --ee ee --q-deg="$start" --count 20 --seed "$seed" \
       --out "tests/tasks/$name/$robot"
   done <<'LIST'
 arm6     tests/robots/arm6.urdf   10,-20,30,-40,50,-60

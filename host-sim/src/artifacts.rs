@@ -88,6 +88,8 @@ pub struct RolloutRun<const N: usize> {
     pub truth: TruthReport,
     /// FNV-1a-64 digest of every sample's bits (see `reactionless::digest`).
     pub digest: TrajectoryDigest,
+    /// Largest |q̇| of each joint over the samples (rad/s).
+    pub max_abs_qd: Vec<f64>,
     /// Samples (for plots), when asked for.
     pub trace: Option<Trace>,
 }
@@ -135,7 +137,11 @@ pub fn write_rollout<const N: usize, const K: usize>(
     let mut truth = TruthModel::new(task, TRUTH_SUBSTEPS);
     let mut digest = TrajectoryDigest::new();
     let mut trace = keep.then(Trace::default);
+    let mut max_abs_qd = vec![0.0f64; N];
     let mut sink = |s: &Sample<N>| {
+        for (m, v) in max_abs_qd.iter_mut().zip(s.qd.iter()) {
+            *m = m.max(v.abs());
+        }
         if let Some(c) = csv.as_mut() {
             c.push(s);
         }
@@ -169,6 +175,7 @@ pub fn write_rollout<const N: usize, const K: usize>(
             end_pose: end,
         },
         digest,
+        max_abs_qd,
         trace,
     })
 }

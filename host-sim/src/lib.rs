@@ -12,6 +12,7 @@
 
 pub mod args;
 pub mod artifacts;
+pub mod cli;
 pub mod cmd;
 pub mod dispatch;
 pub mod drive;

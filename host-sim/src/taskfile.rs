@@ -115,8 +115,7 @@ pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
     let shown = path.display();
     let text =
         std::fs::read_to_string(path).or_input(|| format!("{shown}: cannot read task file"))?;
-    let file: TaskFile = toml::from_str(&text)
-        .map_err(|e| CliError::input(format!("{shown}: {}", one_line(&e.to_string()))))?;
+    let file: TaskFile = toml::from_str(&text).map_err(|e| toml_error(&shown, &e))?;
     let urdf_path = path
         .parent()
         .unwrap_or_else(|| Path::new("."))
@@ -127,8 +126,12 @@ pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
             file.robot.urdf.display().to_string()
         ))
     };
-    let urdf_text = std::fs::read_to_string(&urdf_path)
-        .map_err(|e| urdf_err(format!("cannot read URDF: {e}")))?;
+    let urdf_text = std::fs::read_to_string(&urdf_path).map_err(|e| {
+        urdf_err(format!(
+            "cannot read URDF {} (resolved relative to the task file): {e}",
+            urdf_path.display()
+        ))
+    })?;
     let chain = urdf::parse(&urdf_text, file.robot.ee_link.as_deref()).map_err(urdf_err)?;
     let d = file.check.max_base_disturbance_deg;
     if !(d.is_finite() && d > 0.0) {
@@ -150,8 +153,7 @@ pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
 /// self-contained bundles). `origin` names the source in messages.
 pub fn from_texts(origin: &Path, text: &str, urdf_text: &str) -> Result<LoadedTask, CliError> {
     let shown = origin.display();
-    let file: TaskFile = toml::from_str(text)
-        .map_err(|e| CliError::input(format!("{shown}: {}", one_line(&e.to_string()))))?;
+    let file: TaskFile = toml::from_str(text).map_err(|e| toml_error(&shown, &e))?;
     let chain = urdf::parse(urdf_text, file.robot.ee_link.as_deref())
         .map_err(|m| CliError::input(format!("{shown}: robot: {m}")))?;
     Ok(LoadedTask {
@@ -169,13 +171,10 @@ pub const BUNDLE_TASK: &str = "task.toml";
 /// The URDF copy of a bundle.
 pub const BUNDLE_URDF: &str = "robot.urdf";
 
-/// Collapses toml's multi-line error report into one line.
-fn one_line(s: &str) -> String {
-    s.split('\n')
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && !l.chars().all(|c| "|^ ".contains(c)))
-        .collect::<Vec<_>>()
-        .join(" ")
+/// A TOML error with its file name, keeping toml's report: the line and column, the
+/// snippet with the offending span marked, and the reason.
+fn toml_error(shown: &impl std::fmt::Display, e: &toml::de::Error) -> CliError {
+    CliError::input(format!("{shown}: {}", e.to_string().trim_end()))
 }
 
 impl LoadedTask {

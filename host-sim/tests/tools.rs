@@ -281,7 +281,7 @@ fn generate_writes_reachable_tasks_deterministically() {
             .args([
                 "--ee",
                 "ee",
-                "--start-deg",
+                "--q-deg",
                 "10,-20,30,-40,50,-60",
                 "--count",
                 "3",
@@ -342,7 +342,7 @@ fn generate_writes_reachable_tasks_deterministically() {
     c.args(["generate", "--urdf"])
         .arg(&urdf)
         .args([
-            "--start-deg",
+            "--q-deg",
             "10,-20,30,-40,50,-600",
             "--count",
             "2",

@@ -56,7 +56,7 @@ pub struct Run {
     /// against the truth model); empty without one.
     pub refined: Option<bool>,
     /// Wall time of planning (s).
-    pub wall_s: f64,
+    pub wall_time_s: f64,
 }
 
 fn one<const N: usize, const K: usize>(
@@ -94,7 +94,7 @@ fn one<const N: usize, const K: usize>(
                     RefineAgainst::Truth => truth.f <= tol,
                 }
         }),
-        wall_s: done.seconds,
+        wall_time_s: done.seconds,
     })
 }
 
@@ -117,7 +117,7 @@ fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
         ("f", |r| r.f, true),
         ("base disturbance (deg)", |r| r.base_disturbance_deg, true),
         ("truth f", |r| r.truth_f, true),
-        ("wall time (s)", |r| r.wall_s, false),
+        ("wall time (s)", |r| r.wall_time_s, false),
     ];
     for (name, get, sci) in cols {
         let v: Vec<f64> = runs.iter().map(|r| get(r)).collect();
@@ -143,7 +143,7 @@ fn overview_row(out: &mut String, label: &str, runs: &[&Run]) {
     let ok: Vec<&&Run> = runs.iter().filter(|r| r.converged()).collect();
     let rollouts: Vec<f64> = ok.iter().map(|r| f64::from(r.rollouts)).collect();
     let all_rollouts: Vec<f64> = runs.iter().map(|r| f64::from(r.rollouts)).collect();
-    let wall: Vec<f64> = runs.iter().map(|r| r.wall_s).collect();
+    let wall: Vec<f64> = runs.iter().map(|r| r.wall_time_s).collect();
     let refined = runs.iter().filter(|r| r.refined == Some(true)).count();
     let refined = if runs.iter().any(|r| r.refined.is_some()) {
         format!(

@@ -20,7 +20,7 @@ use crate::error::{CliError, Context};
 use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::with_dims;
 use reactionless::integrator::euler_step;
-use reactionless::{IDENTITY_WXYZ, Sample, Sink, Task, TruthModel};
+use reactionless::{IDENTITY_WXYZ, RefineAgainst, Sample, Sink, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -81,6 +81,11 @@ pub fn run(dir: &Path) -> Result<(), CliError> {
         .map(|l| l.check.as_str())
         .collect();
     if failed.is_empty() {
+        println!(
+            "check: PASS, all {} checks of {}",
+            lines.len(),
+            dir.display()
+        );
         Ok(())
     } else {
         Err(CliError::failed(format!(
@@ -93,6 +98,12 @@ pub fn run(dir: &Path) -> Result<(), CliError> {
 
 /// All checks of `dir`.
 pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
+    if !dir.is_dir() {
+        return Err(CliError::input(format!(
+            "{}: no such directory (give the --out directory of plan or rollout)",
+            dir.display()
+        )));
+    }
     let task_text = read(dir, BUNDLE_TASK)?;
     let urdf_text = read(dir, BUNDLE_URDF)?;
     let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
@@ -172,8 +183,12 @@ fn verify_n<const N: usize, const K: usize>(
     lines.push(joint_limits(&task, &written));
     lines.push(joint_rates(lt, &written));
     lines.push(rest_at_both_ends(&written));
-    lines.push(pose_error(lt, &task, &written));
-    lines.push(base_disturbance(lt, &task, &written));
+    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
+    for s in &written {
+        truth.sample(s);
+    }
+    lines.push(pose_error(lt, &task, &written, &truth));
+    lines.push(base_disturbance(lt, &truth));
     Ok(lines)
 }
 
@@ -336,33 +351,47 @@ fn rest_at_both_ends<const N: usize>(written: &[Sample<N>]) -> Line {
     )
 }
 
-/// The planner-model end pose of the written `q_S` within the task's tolerance.
+/// The end pose of the written `q_S` within the tolerance that was asked for: the
+/// refinement's if the task refines (against the truth model: the truth-model end pose),
+/// else σ_e (planner model).
 fn pose_error<const N: usize, const K: usize>(
     lt: &LoadedTask,
     task: &Task<N, K>,
     written: &[Sample<N>],
+    truth: &TruthModel<'_, N, K>,
 ) -> Line {
-    let tolerance = lt.file.planner.tolerance;
-    let Some(last) = written.last() else {
-        return line(
-            "pose error f (planner model)",
-            "no samples".into(),
-            String::new(),
-            false,
-        );
+    let planner = &lt.file.planner;
+    let (tolerance, key) = match planner.refine_tolerance {
+        Some(t) => (t, "[planner] refine_tolerance"),
+        None => (planner.tolerance, "[planner] tolerance"),
     };
-    let e = task
-        .end_pose(&last.q, IDENTITY_WXYZ)
-        .error_to(task.target());
+    let against_truth =
+        planner.refine_tolerance.is_some() && planner.refine_against == RefineAgainst::Truth;
+    let name = if against_truth {
+        "pose error truth_f (truth model)"
+    } else {
+        "pose error f (planner model)"
+    };
+    let pose = if against_truth {
+        truth.end_pose()
+    } else {
+        written
+            .last()
+            .map(|last| task.end_pose(&last.q, IDENTITY_WXYZ))
+    };
+    let Some(pose) = pose else {
+        return line(name, "no samples".into(), String::new(), false);
+    };
+    let e = pose.error_to(task.target());
     line(
-        "pose error f (planner model)",
+        name,
         format!(
             "{:.3e} ({:.3e} m, {:.3e} deg)",
             e.norm(),
             e.position_m(),
             e.orientation_deg()
         ),
-        format!("<= {tolerance} ([planner] tolerance)"),
+        format!("<= {tolerance:e} ({key})"),
         e.norm() <= tolerance,
     )
 }
@@ -370,13 +399,8 @@ fn pose_error<const N: usize, const K: usize>(
 /// The written path through the truth model, below `[check] max_base_disturbance_deg`.
 fn base_disturbance<const N: usize, const K: usize>(
     lt: &LoadedTask,
-    task: &Task<N, K>,
-    written: &[Sample<N>],
+    truth: &TruthModel<'_, N, K>,
 ) -> Line {
-    let mut truth = TruthModel::new(task, TRUTH_SUBSTEPS);
-    for s in written {
-        truth.sample(s);
-    }
     let limit = lt.max_base_disturbance_deg();
     let deg = truth.max_angle().to_degrees();
     line(

@@ -46,9 +46,9 @@ pub struct FramesJson {
 pub struct Args {
     /// Task file (TOML).
     task: PathBuf,
-    /// Integration steps per frame.
+    /// Integration steps per frame (default: the task's `[planner] frame_budget`).
     #[arg(long)]
-    frame_budget: u32,
+    frame_budget: Option<u32>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -70,16 +70,17 @@ impl Args {
 
 fn run(
     task_path: &Path,
-    frame_budget: u32,
+    frame_budget: Option<u32>,
     json: bool,
     overrides: &Overrides,
 ) -> Result<(), CliError> {
-    if frame_budget == 0 {
+    if frame_budget == Some(0) {
         return Err(CliError::input(
-            "--frame-budget must be at least 1 integration step",
+            "--frame-budget 0: must be at least 1 integration step",
         ));
     }
     let lt = taskfile::load(task_path)?;
+    let frame_budget = frame_budget.unwrap_or(lt.file.planner.frame_budget);
     let report = with_dims!(lt.chain.dof(), frames_n, &lt, frame_budget, overrides)?;
     if json {
         println!(

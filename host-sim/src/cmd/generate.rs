@@ -27,9 +27,9 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     robot: RobotArgs,
-    /// Start configuration (deg), comma-separated.
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_list)]
-    start_deg: List,
+    /// Start configuration (deg), comma-separated: the tasks' `[start] q_deg`.
+    #[arg(long, alias = "start-deg", allow_hyphen_values = true, value_parser = parse_list)]
+    q_deg: List,
     /// Number of tasks.
     #[arg(long)]
     count: u32,
@@ -90,10 +90,10 @@ fn fmt_list(v: &[f64]) -> String {
 
 fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result<(), CliError> {
     let robot = chain.robot::<N>(&o.robot.urdf)?;
-    let start_deg = &o.start_deg.0;
+    let start_deg = &o.q_deg.0;
     if start_deg.len() != N {
         return Err(CliError::input(format!(
-            "--start-deg has {} values; the robot has {N} joints",
+            "--q-deg has {} values; the robot has {N} joints",
             start_deg.len()
         )));
     }
@@ -111,12 +111,12 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
         let msg = match e {
             reactionless::Error::StartOutsideLimits(j) => {
                 format!(
-                    "--start-deg: {} is outside the limits of {}",
+                    "--q-deg: {} is outside the limits of {}",
                     start_deg[usize::from(j) - 1],
                     chain.joint_name(j)
                 )
             }
-            other => format!("--start-deg: {other}"),
+            other => format!("--q-deg: {other}"),
         };
         CliError::input(msg)
     })?;

@@ -1,13 +1,15 @@
 //! One leaf per subcommand. Each file owns its `clap::Args` struct (flags and help) and
 //! `Args::run`; leaves import only the shared modules (`args`, `artifacts`, `drive`,
 //! `records`, `stats`, `output`, `taskfile`, `urdf`, `plots`), never each other. A new
-//! subcommand is one file here plus two lines in `main.rs`.
+//! subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
 pub mod campaign;
 pub mod check;
+pub mod completions;
 pub mod frames;
 pub mod generate;
+pub mod manpage;
 pub mod model;
 pub mod plan;
 pub mod record;

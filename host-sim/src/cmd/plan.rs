@@ -6,15 +6,15 @@
 //! Exit code 0 converged, 1 not converged (outputs still written), 2 bad input.
 
 use crate::args::PlanArgs;
-use crate::artifacts::{PoseJson, summary, write_bundle, write_figures, write_rollout};
+use crate::artifacts::{PoseJson, RolloutRun, summary, write_bundle, write_figures, write_rollout};
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::taskfile::{self, LoadedTask};
 use crate::with_dims;
-use reactionless::RefineStop;
+use reactionless::{PlannerConfig, RefineAgainst, RefineStop};
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `plan.json`.
 #[derive(Serialize)]
@@ -132,7 +132,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     let p = done.plan;
     let converged = p.converged();
     let dir = OutDir::create(&args.out)?;
-    let run = write_rollout(&task, &p.eta, Some(&dir), args.plots)?;
+    let mut run = write_rollout(&task, &p.eta, Some(&dir), args.plots)?;
     if run.outcome != p.outcome {
         return Err(CliError::internal(
             "the re-run rollout differs from the one the planner evaluated",
@@ -141,7 +141,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     let truth = &run.truth;
     dir.write_json("summary.json", &summary(&task, &p.eta, &run.outcome, truth))?;
     write_bundle(lt, &dir, Some(config.seed), config.refine_tolerance)?;
-    if let Some(trace) = run.trace {
+    if let Some(trace) = run.trace.take() {
         write_figures(lt, &task, trace, Some(done.best_per_rollout.clone()), &dir)?;
     }
     let json = PlanJson {
@@ -181,18 +181,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     };
     dir.write_json("plan.json", &json)?;
     let path = dir.commit()?;
-    eprintln!(
-        "plan: {} after {} iterations, {} rollouts, f = {:.3e} ({:.3e} m, {:.3e} deg), base disturbance {:.3e} deg, {:.2} s -> {}",
-        json.status,
-        p.iterations,
-        p.rollouts,
-        p.outcome.f,
-        json.position_error_m,
-        json.orientation_error_deg,
-        truth.base_disturbance_deg,
-        done.seconds,
-        path.display()
-    );
+    eprintln!("{}", human_summary(lt, &config, &json, &run, &path));
     if converged {
         Ok(())
     } else {
@@ -201,4 +190,77 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
             p.iterations, p.outcome.f
         )))
     }
+}
+
+/// The plan as an engineer reads it: status against what was asked, the errors in their
+/// units, the base disturbance and the largest rate against their limits, the cost, and
+/// where the files are.
+fn human_summary<const N: usize>(
+    lt: &LoadedTask,
+    config: &PlannerConfig,
+    json: &PlanJson,
+    run: &RolloutRun<N>,
+    dir: &Path,
+) -> String {
+    let limit_deg = lt.max_base_disturbance_deg();
+    let disturbance = run.truth.base_disturbance_deg;
+    let (rate_joint, ratio) = run
+        .max_abs_qd
+        .iter()
+        .zip(lt.chain.joints.iter().map(|j| j.velocity))
+        .enumerate()
+        .map(|(j, (v, lim))| (j, v / lim))
+        .fold((0, 0.0f64), |best, x| if x.1 > best.1 { x } else { best });
+    let rate = run.max_abs_qd.get(rate_joint).copied().unwrap_or(0.0);
+    let rate_limit = lt
+        .chain
+        .joints
+        .get(rate_joint)
+        .map_or(f64::NAN, |j| j.velocity);
+    let asked = match (config.refine_tolerance, config.refine_against) {
+        (Some(t), RefineAgainst::Planner) => format!("f ≤ {t:e} (refined)"),
+        (Some(t), RefineAgainst::Truth) => {
+            format!("truth_f ≤ {t:e} (refined against the truth model)")
+        }
+        (None, _) => format!("f ≤ σ_e = {}", config.tolerance),
+    };
+    let met = match (&json.refine, config.refine_tolerance) {
+        (Some(r), Some(_)) => r.stop == "reached",
+        (None, Some(_)) => false,
+        (_, None) => json.status == "converged",
+    };
+    let verdict = match (json.status, met) {
+        ("converged", true) => "converged",
+        ("converged", false) => "converged to σ_e; the refinement tolerance was NOT met",
+        _ => "NOT converged (the budget is spent)",
+    };
+    let pass = |ok: bool| if ok { "ok" } else { "EXCEEDED" };
+    format!(
+        "plan: {verdict}; asked {asked}\n\
+         \x20 strategy             {} (seed {})\n\
+         \x20 pose error f         {:.3e} (planner model), truth_f {:.3e} (base drift included)\n\
+         \x20 position error       {:.3e} m\n\
+         \x20 orientation error    {:.3e} deg\n\
+         \x20 base disturbance     {disturbance:.3e} deg (requirement ≤ {limit_deg} deg: {})\n\
+         \x20 largest joint rate   {:.3} deg/s on {} (its limit {:.3} deg/s: {:.0}%)\n\
+         \x20 rollouts             {} in {:.2} s\n\
+         \x20 files                {}/ (plan.json, summary.json, trajectory.csv, task.toml, robot.urdf)",
+        json.strategy,
+        json.seed,
+        json.f,
+        json.truth_f,
+        json.position_error_m,
+        json.orientation_error_deg,
+        pass(disturbance <= limit_deg),
+        rate.to_degrees(),
+        lt.chain
+            .joint_names
+            .get(rate_joint)
+            .map_or("?", String::as_str),
+        rate_limit.to_degrees(),
+        100.0 * ratio,
+        json.rollouts,
+        json.wall_time_s,
+        dir.display(),
+    )
 }

@@ -1,0 +1,73 @@
+//! The command line: the top-level parser and the list of subcommands, one leaf each in
+//! [`crate::cmd`]. A new subcommand is its file plus two lines here (the variant and its
+//! `run` arm).
+
+use crate::cmd;
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Host simulator for the reactionless planner.
+#[derive(Debug, Parser)]
+#[command(name = "host-sim", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// The subcommands; each variant's arguments and doc live in its `cmd/` file.
+#[derive(Debug, Subcommand)]
+enum Command {
+    Model(cmd::model::Args),
+    Rollout(cmd::rollout::Args),
+    Plan(cmd::plan::Args),
+    Check(cmd::check::Args),
+    Record(cmd::record::Args),
+    Replay(cmd::replay::Args),
+    Generate(cmd::generate::Args),
+    Frames(cmd::frames::Args),
+    Campaign(cmd::campaign::Args),
+    Target(cmd::target::Args),
+    Bench(cmd::bench::Args),
+    Completions(cmd::completions::Args),
+    Manpage(cmd::manpage::Args),
+}
+
+/// Parses the command line, runs the subcommand, maps the result to the exit code (0
+/// success, 1 a result that does not pass, 2 bad input).
+pub fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Model(a) => a.run(),
+        Command::Rollout(a) => a.run(),
+        Command::Plan(a) => a.run(),
+        Command::Check(a) => a.run(),
+        Command::Record(a) => a.run(),
+        Command::Replay(a) => a.run(),
+        Command::Generate(a) => a.run(),
+        Command::Frames(a) => a.run(),
+        Command::Campaign(a) => a.run(),
+        Command::Target(a) => a.run(),
+        Command::Bench(a) => a.run(),
+        Command::Completions(a) => a.run(),
+        Command::Manpage(a) => a.run(),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.code)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    /// Clap's own consistency checks of every subcommand's arguments (a type mismatch
+    /// between a value parser and its field panics only when the flag is used).
+    #[test]
+    fn the_command_line_is_consistent() {
+        Cli::command().debug_assert();
+    }
+}

@@ -1,0 +1,23 @@
+//! `host-sim completions SHELL`: shell completions from the clap definitions, on stdout.
+
+use crate::cli::Cli;
+use crate::error::CliError;
+use clap::CommandFactory;
+use clap_complete::Shell;
+
+/// Print shell completions (bash, zsh, fish, elvish, powershell) to stdout, e.g.
+/// `host-sim completions bash > ~/.local/share/bash-completion/completions/host-sim`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The shell.
+    shell: Shell,
+}
+
+impl Args {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        let mut cmd = Cli::command();
+        clap_complete::generate(self.shell, &mut cmd, "host-sim", &mut std::io::stdout());
+        Ok(())
+    }
+}

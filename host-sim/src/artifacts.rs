@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 pub const TRUTH_SUBSTEPS: u32 = 10;
 
 /// `summary.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Summary {
     /// η as given.
@@ -62,7 +62,7 @@ pub struct Summary {
 }
 
 /// A pose in JSON.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PoseJson {
     /// Position (m).

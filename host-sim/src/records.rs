@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 pub const FORMAT: &str = "reactionless-record/1";
 
 /// A certification record.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Record {
     /// [`FORMAT`].
@@ -56,7 +56,7 @@ pub struct Record {
 }
 
 /// A build of host-sim.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Build {
     /// Crate version.
@@ -85,7 +85,7 @@ impl Build {
 }
 
 /// A pose as bit patterns.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PoseBits {
     /// Position (m), hex bit patterns.
@@ -95,7 +95,7 @@ pub struct PoseBits {
 }
 
 /// The outputs a replay must reproduce.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Outputs {
     /// `converged` or `not_converged`.

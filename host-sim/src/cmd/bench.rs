@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The report.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct BenchJson {
     /// Joint count.
     pub n: usize,
@@ -40,7 +40,7 @@ pub struct BenchJson {
 }
 
 /// One timed plan.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct PlanRun {
     /// Seed.
     pub seed: u64,

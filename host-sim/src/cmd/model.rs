@@ -22,32 +22,40 @@ pub struct Args {
     q_deg: List,
 }
 
-#[derive(Serialize)]
-struct EePose {
-    position: [f64; 3],
-    quat_wxyz: [f64; 4],
+#[derive(Serialize, schemars::JsonSchema)]
+/// The end-effector pose in the base frame.
+pub struct EePose {
+    /// Position (m).
+    pub position: [f64; 3],
+    /// Unit quaternion `[w, x, y, z]`.
+    pub quat_wxyz: [f64; 4],
 }
 
-#[derive(Serialize)]
-struct ModelReport {
-    robot: String,
-    joints: Vec<String>,
-    q_deg: Vec<f64>,
+#[derive(Serialize, schemars::JsonSchema)]
+/// The model report.
+pub struct ModelReport {
+    /// Robot name (URDF).
+    pub robot: String,
+    /// Revolute joint names, base to tip.
+    pub joints: Vec<String>,
+    /// The configuration (deg).
+    pub q_deg: Vec<f64>,
     /// System CoM (m).
-    com: [f64; 3],
+    pub com: [f64; 3],
     /// H~b (kg m²).
-    hb: Vec<Vec<f64>>,
+    pub hb: Vec<Vec<f64>>,
     /// H~bm (kg m²), 3×N.
-    hbm: Vec<Vec<f64>>,
+    pub hbm: Vec<Vec<f64>>,
     /// Singular values of H~bm, largest first (host-side SVD, reporting only).
-    hbm_singular_values: Vec<f64>,
+    pub hbm_singular_values: Vec<f64>,
     /// σ_max/σ_min of H~bm.
-    hbm_condition: f64,
+    pub hbm_condition: f64,
     /// Initial RNS basis MGS(P·E), N×K.
-    rns_basis: Vec<Vec<f64>>,
+    pub rns_basis: Vec<Vec<f64>>,
     /// Generalized Jacobian, 6×N (m/rad, rad/rad).
-    jg: Vec<Vec<f64>>,
-    ee: EePose,
+    pub jg: Vec<Vec<f64>>,
+    /// End-effector pose (base at the origin, identity attitude).
+    pub ee: EePose,
 }
 
 fn rows<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<Vec<f64>> {

@@ -17,7 +17,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// `plan.json`.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct PlanJson {
     /// `"converged"` or `"not_converged"`.
     pub status: &'static str,
@@ -66,7 +66,7 @@ pub struct PlanJson {
 }
 
 /// Refinement in `plan.json`.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct RefineJson {
     /// Target on f.
     pub tolerance: f64,

@@ -41,7 +41,7 @@ pub const STACK_BUDGET: u64 = 16 * 1024;
 pub const STATIC_RAM_BUDGET: u64 = 64 * 1024;
 
 /// What `target` reports.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct TargetJson {
     /// Every output of the image equals the host's, bit for bit.
     pub bit_identical: bool,

@@ -192,14 +192,43 @@ pub fn write_bundle(
     dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
 }
 
-/// Writes the figures of a rollout (and a plan's convergence) into `dir`.
+/// What a plan adds to the figures of its rollout.
+pub struct PlanFigures {
+    /// The best f after each rollout.
+    pub history: Vec<f64>,
+    /// The seed planned with.
+    pub seed: u64,
+    /// The strategy.
+    pub strategy: reactionless::Strategy,
+    /// The rollout that first met σ_e.
+    pub first_hit: Option<u32>,
+}
+
+/// Writes the figures of a rollout (and a plan's convergence) into `dir`, each stamped
+/// with the task, seed, strategy and build.
 pub fn write_figures<const N: usize, const K: usize>(
     lt: &LoadedTask,
     task: &Task<N, K>,
     trace: Trace,
-    history: Option<Vec<f64>>,
+    plan: Option<PlanFigures>,
     dir: &OutDir,
 ) -> Result<Vec<String>, CliError> {
+    let (seed, strategy) = plan
+        .as_ref()
+        .map_or((lt.file.planner.seed, lt.file.planner.strategy), |p| {
+            (p.seed, p.strategy)
+        });
+    let stamp = format!(
+        "{} · {} · host-sim {} ({})",
+        lt.path.display(),
+        if plan.is_some() {
+            format!("seed {seed} · {}", strategy.name())
+        } else {
+            "rollout".to_string()
+        },
+        env!("CARGO_PKG_VERSION"),
+        crate::records::Build::current().git_revision
+    );
     let robot = task.robot();
     let data = PlotData {
         joint_names: lt.chain.joint_names.clone(),
@@ -212,7 +241,11 @@ pub fn write_figures<const N: usize, const K: usize>(
         ee: trace.ee,
         target: task.target().position,
         base_angle_deg: trace.base_angle_deg,
-        best_f_history: history,
+        tolerance: lt.file.planner.tolerance,
+        first_hit: plan.as_ref().and_then(|p| p.first_hit),
+        best_f_history: plan.map(|p| p.history),
+        base_limit_deg: lt.max_base_disturbance_deg(),
+        stamp,
     };
     plots::write_plots(&dir.path(""), &data)
 }

@@ -40,6 +40,10 @@ fn data(with_history: bool) -> PlotData {
                 .map(|k| 0.3 * (-0.2 * k as f64).exp() + 1e-5)
                 .collect()
         }),
+        tolerance: 0.05,
+        first_hit: with_history.then_some(10),
+        base_limit_deg: 0.01,
+        stamp: "test task · seed 1 · multistart · host-sim test".into(),
     }
 }
 
@@ -58,12 +62,19 @@ const FIGURES: [(&str, (u32, u32), &[&str]); 5] = [
     (
         "joints",
         (1000, 600),
-        &["joint angle (deg)", "time (s)", "shoulder", "wrist"],
+        &[
+            "position in range",
+            "time (s)",
+            "shoulder",
+            "wrist",
+            "limits",
+            "test task",
+        ],
     ),
     (
         "joint_rates",
         (1000, 600),
-        &["joint rate (deg/s)", "time (s)", "elbow"],
+        &["rate in range", "time (s)", "elbow", "limits"],
     ),
     (
         "ee_path",
@@ -73,9 +84,13 @@ const FIGURES: [(&str, (u32, u32), &[&str]); 5] = [
     (
         "base_attitude",
         (1000, 600),
-        &["base rotation (deg)", "time (s)", "e-4"],
+        &["base rotation (deg)", "time (s)", "requirement 0.01"],
     ),
-    ("convergence", (1000, 600), &["best f (m, rad)", "rollouts"]),
+    (
+        "convergence",
+        (1000, 600),
+        &["best f (m, rad)", "rollouts", "σ_e = 0.05", "success"],
+    ),
 ];
 
 fn check(dir: &Path, written: &[String], figures: &[(&str, (u32, u32), &[&str])]) {

@@ -239,7 +239,7 @@ fn plots_on_plan_and_rollout() {
         }
     }
     let svg = std::fs::read_to_string(out.join("joints.svg")).unwrap();
-    assert!(svg.contains("time (s)") && svg.contains("joint angle (deg)"));
+    assert!(svg.contains("time (s)") && svg.contains("position in range"));
     // rollout --plots: no convergence figure.
     let eta: Vec<String> = {
         let p: Value =

@@ -6,7 +6,9 @@
 //! Exit code 0 converged, 1 not converged (outputs still written), 2 bad input.
 
 use crate::args::PlanArgs;
-use crate::artifacts::{PoseJson, RolloutRun, summary, write_bundle, write_figures, write_rollout};
+use crate::artifacts::{
+    PlanFigures, PoseJson, RolloutRun, summary, write_bundle, write_figures, write_rollout,
+};
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::CliError;
 use crate::output::OutDir;
@@ -142,7 +144,13 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     dir.write_json("summary.json", &summary(&task, &p.eta, &run.outcome, truth))?;
     write_bundle(lt, &dir, Some(config.seed), config.refine_tolerance)?;
     if let Some(trace) = run.trace.take() {
-        write_figures(lt, &task, trace, Some(done.best_per_rollout.clone()), &dir)?;
+        let plan = PlanFigures {
+            history: done.best_per_rollout.clone(),
+            seed: config.seed,
+            strategy: config.strategy,
+            first_hit: p.first_hit,
+        };
+        write_figures(lt, &task, trace, Some(plan), &dir)?;
     }
     let json = PlanJson {
         status: if converged {

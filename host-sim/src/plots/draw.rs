@@ -12,31 +12,74 @@ pub(super) fn draw_figure<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(e)?;
+    // A footer band for the stamp, below everything else.
+    let (_, h) = root.dim_in_pixel();
+    let (body, footer) = root.split_vertically(h.saturating_sub(18));
     let area = match &fig.title {
-        Some(title) => root
+        Some(title) => body
             .titled(title, ("sans-serif", 26).into_font())
             .map_err(e)?,
-        None => root.clone(),
+        None => body.clone(),
     };
     let areas = area.split_evenly((1, fig.panels.len().max(1)));
     for (panel, a) in fig.panels.iter().zip(&areas) {
-        draw_panel(a, panel)?;
+        draw_panel(a, panel, fig.equal_aspect)?;
+    }
+    if !fig.stamp.is_empty() {
+        let (w, h) = footer.dim_in_pixel();
+        let style = ("sans-serif", 12)
+            .into_font()
+            .color(&RGBColor(110, 110, 110))
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Right,
+                plotters::style::text_anchor::VPos::Bottom,
+            ));
+        footer
+            .draw_text(&fig.stamp, &style, (w as i32 - 6, h as i32 - 3))
+            .map_err(e)?;
     }
     Ok(())
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> Result<(), String> {
+/// Pixels the chart decorations take: margin, caption, axis label areas.
+const MARGIN: u32 = 12;
+const CAPTION: u32 = 32;
+const X_LABELS: u32 = 50;
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+    equal_aspect: bool,
+) -> Result<(), String> {
+    let y_labels = match p.y_ticks {
+        Ticks::Sci { .. } => 95,
+        _ => 75,
+    };
     let mut builder = ChartBuilder::on(area);
     builder
         .caption(&p.title, ("sans-serif", 22).into_font())
-        .margin(12)
-        .x_label_area_size(50)
-        .y_label_area_size(match p.y_ticks {
-            Ticks::Sci { .. } => 95,
-            _ => 75,
-        });
-    let x = p.x.0..p.x.1;
-    let y = p.y.0..p.y.1;
+        .margin(MARGIN)
+        .x_label_area_size(X_LABELS)
+        .y_label_area_size(y_labels);
+    let (mut x, mut y) = (p.x, p.y);
+    if equal_aspect {
+        // Widen one range so that a metre spans as many pixels on both axes.
+        let (w, h) = area.dim_in_pixel();
+        let pw = f64::from(w.saturating_sub(y_labels + 2 * MARGIN).max(1));
+        let ph = f64::from(h.saturating_sub(X_LABELS + CAPTION + 2 * MARGIN).max(1));
+        let (sx, sy) = ((x.1 - x.0) / pw, (y.1 - y.0) / ph);
+        if sx > sy {
+            let half = 0.5 * sx * ph;
+            let c = 0.5 * (y.0 + y.1);
+            y = (c - half, c + half);
+        } else {
+            let half = 0.5 * sy * pw;
+            let c = 0.5 * (x.0 + x.1);
+            x = (c - half, c + half);
+        }
+    }
+    let x = x.0..x.1;
+    let y = y.0..y.1;
     if p.y_log {
         let chart = builder
             .build_cartesian_2d(x, y.log_scale())

@@ -24,6 +24,10 @@ fn colour(i: usize) -> RGBColor {
 
 /// One image file (pair): a title and one or more panels side by side.
 pub(super) struct Figure {
+    /// What made it (task, seed, build), printed in the lower right corner.
+    pub(super) stamp: String,
+    /// One unit is as long on both axes (the plot areas are made square by the drawing).
+    pub(super) equal_aspect: bool,
     pub(super) name: &'static str,
     pub(super) size: (u32, u32),
     /// Title above all panels (multi-panel figures); single panels use their own caption.
@@ -99,7 +103,7 @@ pub(super) fn figures(data: &PlotData) -> Result<Vec<Figure>, String> {
         base_figure(data)?,
     ];
     if let Some(history) = &data.best_f_history {
-        figs.push(convergence_figure(history)?);
+        figs.push(convergence_figure(history, data)?);
     }
     Ok(figs)
 }
@@ -196,53 +200,56 @@ fn time_range(d: &PlotData) -> Result<(f64, f64), String> {
     padded("t", r, 0.0)
 }
 
-/// Joint-indexed time series (degrees) with each joint's limits as horizontal lines.
-fn joint_panel(
+/// Each joint's series as a fraction of its range: `(v − lo)/(hi − lo)` lies in [0, 1]
+/// while the joint keeps its limits (drawn once, dashed, at 0 and 1), whatever the joint's
+/// range, so that every joint is readable on one axis.
+fn normalised_panel(
     d: &PlotData,
     rows: &[Vec<f64>],
-    limits: &dyn Fn(usize) -> [f64; 2],
+    range: &dyn Fn(usize) -> (f64, f64),
+    label: &dyn Fn(&str, (f64, f64)) -> String,
     what: &str,
     title: &str,
     y_label: &'static str,
 ) -> Result<Panel, String> {
     let (t0, t1) = time_range(d)?;
     let mut lines = Vec::new();
-    let mut ys = Vec::new();
+    let mut ys = vec![0.0, 1.0];
     for (j, name) in d.joint_names.iter().enumerate() {
-        let c = colour(j);
-        let segs = segments(d.t.iter().zip(rows).map(|(&t, r)| (t, r[j].to_degrees())));
+        let (lo, hi) = range(j);
+        let span = hi - lo;
+        if !(span.is_finite() && span > 0.0) {
+            // Nothing to normalise by: named in the legend, not drawn.
+            lines.push(Line {
+                label: Some(format!("{name} (no finite limits: not shown)")),
+                colour: colour(j),
+                kind: LineKind::Data,
+                dots: false,
+                segments: Vec::new(),
+            });
+            continue;
+        }
+        let segs = segments(d.t.iter().zip(rows).map(|(&t, r)| (t, (r[j] - lo) / span)));
         ys.extend(segs.iter().flatten().map(|p| p.1));
         lines.push(Line {
-            label: Some(name.clone()),
-            colour: c,
+            label: Some(label(name, (lo, hi))),
+            colour: colour(j),
             kind: LineKind::Data,
             dots: false,
             segments: segs,
         });
-        for lim in limits(j) {
-            let deg = lim.to_degrees();
-            if deg.is_finite() {
-                ys.push(deg);
-                lines.push(Line {
-                    label: None,
-                    colour: c,
-                    kind: LineKind::Limit,
-                    dots: false,
-                    segments: vec![vec![(t0, deg), (t1, deg)]],
-                });
-            }
-        }
+    }
+    for (k, level) in [0.0, 1.0].into_iter().enumerate() {
+        lines.push(Line {
+            label: (k == 0).then(|| "limits".into()),
+            colour: RGBColor(90, 90, 90),
+            kind: LineKind::Limit,
+            dots: false,
+            segments: vec![vec![(t0, level), (t1, level)]],
+        });
     }
     let y = finite_range(ys.into_iter()).ok_or(format!("{what} has no finite values"))?;
     let y = padded(what, y, 0.05)?;
-    // A legend entry for the dashed lines, drawn in grey.
-    lines.push(Line {
-        label: Some("limits (dashed)".into()),
-        colour: RGBColor(90, 90, 90),
-        kind: LineKind::Limit,
-        dots: false,
-        segments: Vec::new(),
-    });
     Ok(Panel {
         title: title.into(),
         x_label: "time (s)",
@@ -251,7 +258,7 @@ fn joint_panel(
         y,
         y_log: false,
         x_ticks: value_ticks((t0, t1)),
-        y_ticks: value_ticks(y),
+        y_ticks: Ticks::Plain,
         x_label_count: None,
         lines,
         markers: Vec::new(),
@@ -259,29 +266,35 @@ fn joint_panel(
 }
 
 fn joints_figure(d: &PlotData) -> Result<Figure, String> {
-    let limits = |j: usize| [d.lower[j], d.upper[j]];
-    let panel = joint_panel(
+    let range = |j: usize| (d.lower[j], d.upper[j]);
+    let label = |name: &str, (lo, hi): (f64, f64)| {
+        format!("{name} [{:.0}°, {:.0}°]", lo.to_degrees(), hi.to_degrees())
+    };
+    let panel = normalised_panel(
         d,
         &d.q,
-        &limits,
+        &range,
+        &label,
         "q",
-        "Joint angles (dashed: limits)",
-        "joint angle (deg)",
+        "Joint angles within their limits",
+        "position in range (0 = lower, 1 = upper limit)",
     )?;
-    Ok(single("joints", (1000, 600), panel))
+    Ok(single("joints", (1000, 600), panel, d))
 }
 
 fn rates_figure(d: &PlotData) -> Result<Figure, String> {
-    let limits = |j: usize| [-d.qd_limit[j].abs(), d.qd_limit[j].abs()];
-    let panel = joint_panel(
+    let range = |j: usize| (-d.qd_limit[j].abs(), d.qd_limit[j].abs());
+    let label = |name: &str, (_, hi): (f64, f64)| format!("{name} (±{:.1}°/s)", hi.to_degrees());
+    let panel = normalised_panel(
         d,
         &d.qd,
-        &limits,
+        &range,
+        &label,
         "qd",
-        "Joint rates (dashed: ± rate limits)",
-        "joint rate (deg/s)",
+        "Joint rates within their limits",
+        "rate in range (0 = −limit, 0.5 = rest, 1 = +limit)",
     )?;
-    Ok(single("joint_rates", (1000, 600), panel))
+    Ok(single("joint_rates", (1000, 600), panel, d))
 }
 
 fn base_figure(d: &PlotData) -> Result<Figure, String> {
@@ -289,7 +302,29 @@ fn base_figure(d: &PlotData) -> Result<Figure, String> {
     let segs = segments(d.t.iter().copied().zip(d.base_angle_deg.iter().copied()));
     let y = finite_range(segs.iter().flatten().map(|p| p.1))
         .ok_or("base_angle_deg has no finite values (at finite times)")?;
-    let y = padded("base_angle_deg", y, 0.05)?;
+    let limit = d.base_limit_deg;
+    let top = if limit.is_finite() && limit > 0.0 {
+        y.1.max(limit)
+    } else {
+        y.1
+    };
+    let y = padded("base_angle_deg", (y.0.min(0.0), top), 0.05)?;
+    let mut lines = vec![Line {
+        label: Some("base rotation".into()),
+        colour: colour(0),
+        kind: LineKind::Data,
+        dots: false,
+        segments: segs,
+    }];
+    if limit.is_finite() && limit > 0.0 {
+        lines.push(Line {
+            label: Some(format!("requirement {limit}°")),
+            colour: RGBColor(214, 39, 40),
+            kind: LineKind::Limit,
+            dots: false,
+            segments: vec![vec![(t0, limit), (t1, limit)]],
+        });
+    }
     Ok(single(
         "base_attitude",
         (1000, 600),
@@ -303,27 +338,31 @@ fn base_figure(d: &PlotData) -> Result<Figure, String> {
             x_ticks: value_ticks((t0, t1)),
             y_ticks: value_ticks(y),
             x_label_count: None,
-            lines: vec![Line {
-                label: None,
-                colour: colour(0),
-                kind: LineKind::Data,
-                dots: false,
-                segments: segs,
-            }],
+            lines,
             markers: Vec::new(),
         },
+        d,
     ))
 }
 
-fn convergence_figure(history: &[f64]) -> Result<Figure, String> {
+fn convergence_figure(history: &[f64], d: &PlotData) -> Result<Figure, String> {
     // Rollout k + 1 produced history[k]; a log axis shows only positive values.
     let points = history
         .iter()
         .enumerate()
         .map(|(k, &f)| (k as f64 + 1.0, if f > 0.0 { f } else { f64::NAN }));
     let segs = segments(points);
-    let (lo, hi) = finite_range(segs.iter().flatten().map(|p| p.1))
-        .ok_or("best_f_history has no positive finite values")?;
+    let sigma = d.tolerance;
+    if !segs.iter().flatten().any(|p| p.1 > 0.0 && p.1.is_finite()) {
+        return Err("best_f_history has no positive finite values".into());
+    }
+    let (lo, hi) = finite_range(
+        segs.iter()
+            .flatten()
+            .map(|p| p.1)
+            .chain((sigma > 0.0 && sigma.is_finite()).then_some(sigma)),
+    )
+    .ok_or("best_f_history has no positive finite values")?;
     // Whole decades, at least one, so that the log axis always has labelled ticks.
     // (Nudged outwards: plotters computes the first tick as 10^ceil(log10(lo)), which
     // rounding can push one decade too far.)
@@ -353,15 +392,40 @@ fn convergence_figure(history: &[f64]) -> Result<Figure, String> {
                 zero: 0.0,
             },
             x_label_count: Some(n.min(10)),
-            lines: vec![Line {
-                label: None,
-                colour: colour(0),
-                kind: LineKind::Data,
-                dots: history.len() <= 60,
-                segments: segs,
-            }],
-            markers: Vec::new(),
+            lines: {
+                let mut lines = vec![Line {
+                    label: Some("best f so far".into()),
+                    colour: colour(0),
+                    kind: LineKind::Data,
+                    dots: history.len() <= 60,
+                    segments: segs,
+                }];
+                if sigma > 0.0 && sigma.is_finite() {
+                    lines.push(Line {
+                        label: Some(format!("σ_e = {sigma}")),
+                        colour: RGBColor(214, 39, 40),
+                        kind: LineKind::Limit,
+                        dots: false,
+                        segments: vec![vec![(1.0, sigma), (n as f64, sigma)]],
+                    });
+                }
+                lines
+            },
+            markers: d
+                .first_hit
+                .and_then(|k| {
+                    let f = *history.get((k as usize).checked_sub(1)?)?;
+                    (f > 0.0).then_some(Marker {
+                        label: "success",
+                        colour: RGBColor(44, 160, 44),
+                        shape: Shape::Circle,
+                        at: (f64::from(k), f),
+                    })
+                })
+                .into_iter()
+                .collect(),
         },
+        d,
     ))
 }
 
@@ -426,8 +490,10 @@ fn ee_figure(d: &PlotData) -> Result<Figure, String> {
     Ok(Figure {
         name: "ee_path",
         size: (1500, 540),
-        title: Some("End-effector path (planner model) and target".into()),
+        title: Some("End-effector path (planner model) and target, equal axis scales".into()),
         panels,
+        stamp: d.stamp.clone(),
+        equal_aspect: true,
     })
 }
 
@@ -475,11 +541,13 @@ fn value_ticks((lo, hi): (f64, f64)) -> Ticks {
     }
 }
 
-fn single(name: &'static str, size: (u32, u32), panel: Panel) -> Figure {
+fn single(name: &'static str, size: (u32, u32), panel: Panel, d: &PlotData) -> Figure {
     Figure {
         name,
         size,
         title: None,
         panels: vec![panel],
+        stamp: d.stamp.clone(),
+        equal_aspect: false,
     }
 }

@@ -50,6 +50,14 @@ pub struct PlotData {
     pub base_angle_deg: Vec<f64>,
     /// The best f after each rollout (only for plans).
     pub best_f_history: Option<Vec<f64>>,
+    /// σ_e, drawn on the convergence plot.
+    pub tolerance: f64,
+    /// The rollout (1-based) that first met σ_e, marked on the convergence plot.
+    pub first_hit: Option<u32>,
+    /// The base-disturbance requirement (deg), drawn on the base attitude plot.
+    pub base_limit_deg: f64,
+    /// What made the figure (task, seed, strategy, build), printed in a corner of each.
+    pub stamp: String,
 }
 
 /// Writes the figures into `dir` as PNG and SVG; returns the file names written.

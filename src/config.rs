@@ -186,7 +186,7 @@ impl PlannerConfig {
     }
 
     /// The spec §7 settings, the paper's C-PSO: 40 particles, m_max = 200, c1 = c2 =
-    /// 1.49618, ω 0.9 → 0.4, σ_e = 0.05, B = 5, no refinement (400 rollouts if enabled,
+    /// 1.49618, ω 0.9 → 0.4, σ_e = 0.05, B = 5, no refinement (1000 rollouts if enabled,
     /// against the planner model), the reference alarm, a total budget of 8,040 rollouts and
     /// a frame budget of 3000 integration steps (one reference rollout).
     #[must_use]
@@ -204,7 +204,7 @@ impl PlannerConfig {
             eta_bound: 5.0,
             seed,
             refine_tolerance: None,
-            refine_max_rollouts: 400,
+            refine_max_rollouts: 1000,
             refine_against: RefineAgainst::Planner,
             frame_budget: 3000,
             stagnation: StagnationConfig::REFERENCE,

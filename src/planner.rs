@@ -58,6 +58,12 @@ use crate::truth::{MIN_SUBSTEPS, TruthState};
 /// Truth-model sub-steps per integration step when a candidate asks for the truth model.
 pub const TRUTH_SUBSTEPS: u32 = MIN_SUBSTEPS;
 
+/// Below this `f` (m and rad, as σ_e) a multistart start that stalls is handed to the
+/// refinement against the truth model instead of being restarted: the planner model's own
+/// floor on a target the truth model made (measured `1e-5…5e-5`), not a local minimum
+/// (measured `3e-3…2e-2`). See [`crate::multistart::LmConfig::floor`].
+pub const TRUTH_HANDOVER_FLOOR: f64 = 1e-3;
+
 /// Which stage the planner is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -266,12 +272,13 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         &mut self.task
     }
 
-    /// The tolerance the multistart searches to: the refinement tolerance when refinement
-    /// is against the planner model (it refines as it searches), else σ_e.
+    /// The tolerance the multistart searches to: the refinement tolerance when there is
+    /// one (it refines as it searches; against the truth it stops at its planner-model
+    /// floor and the truth refinement takes over), else σ_e.
     fn search_tolerance(config: &PlannerConfig) -> f64 {
-        match (config.refine_tolerance, config.refine_against) {
-            (Some(r), RefineAgainst::Planner) => r.min(config.tolerance),
-            _ => config.tolerance,
+        match config.refine_tolerance {
+            Some(r) => r.min(config.tolerance),
+            None => config.tolerance,
         }
     }
 
@@ -302,6 +309,10 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 let lm = LmConfig {
                     max_rollouts: config.max_rollouts,
                     sigma_e: config.tolerance,
+                    floor: match (config.refine_tolerance, config.refine_against) {
+                        (Some(_), RefineAgainst::Truth) => TRUTH_HANDOVER_FLOOR,
+                        _ => 0.0,
+                    },
                     ..LmConfig::reference()
                 };
                 self.multistart.reset(
@@ -652,9 +663,12 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         };
         self.phase = match (next, evaluation.outcome(), self.record) {
             (Next::Continue, ..) => Phase::Search,
-            (Next::Done(Stop::Converged), Some(o), _) => {
+            // The search's best point: the evaluation that met the tolerance (it dominates
+            // everything before it), or the multistart's floor below σ_e.
+            (Next::Done(Stop::Converged), _, Record::Found(eta, o)) => {
+                self.eta = eta;
                 self.search_f = o.f;
-                self.converged(*o, observer)
+                self.converged(o, observer)
             }
             (Next::Done(_), _, Record::Found(eta, o)) => {
                 self.search_f = o.f;

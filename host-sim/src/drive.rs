@@ -38,6 +38,25 @@ pub struct Planned<const N: usize, const K: usize> {
     pub steps: u64,
 }
 
+/// A spinner with the elapsed time and `msg` on a terminal (stderr); elsewhere one line
+/// `msg…` on stderr, so logs show what long work is under way. Finish it with
+/// [`ProgressBar::finish_and_clear`].
+pub fn spinner(msg: &str) -> ProgressBar {
+    if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new_spinner();
+        b.set_style(
+            ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        b.set_message(msg.to_string());
+        b.enable_steady_tick(std::time::Duration::from_millis(200));
+        b
+    } else {
+        eprintln!("{msg}…");
+        ProgressBar::hidden()
+    }
+}
+
 /// Plans `lt` with `config` to the end; shows a progress bar on a terminal if `progress`.
 ///
 /// # Errors

@@ -74,6 +74,13 @@ pub struct TargetSection {
     pub position_m: Vec<f64>,
     /// Attitude as a unit quaternion `[w, x, y, z]` (|‖q‖ − 1| ≤ 1e-6).
     pub quat_wxyz: Vec<f64>,
+    /// Largest acceptable end-effector position error (m), > 0; optional. The planner is
+    /// asked to refine to `f ≤` this (`‖e_p‖ ≤ f`), and `check` holds the plan to it.
+    pub position_tolerance_m: Option<f64>,
+    /// Largest acceptable end-effector orientation error (deg), > 0; optional. The planner
+    /// is asked to refine to `f ≤` this in radians (the rotation angle is `≤ f`), and
+    /// `check` holds the plan to it.
+    pub orientation_tolerance_deg: Option<f64>,
 }
 
 /// `[motion]`: duration and time grid.
@@ -206,6 +213,35 @@ impl LoadedTask {
         }
         let text = toml::to_string(&table).or_internal(|| "writing the task")?;
         Ok((text, self.urdf_text.clone()))
+    }
+
+    /// `[target] position_tolerance_m` (m) and `orientation_tolerance_deg` (deg), each
+    /// checked finite and > 0.
+    pub fn pose_tolerances(&self) -> Result<(Option<f64>, Option<f64>), CliError> {
+        let t = &self.file.target;
+        for (key, v) in [
+            ("position_tolerance_m", t.position_tolerance_m),
+            ("orientation_tolerance_deg", t.orientation_tolerance_deg),
+        ] {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(self.err(format!("[target] {key} = {v} must be a finite number > 0")));
+            }
+        }
+        Ok((t.position_tolerance_m, t.orientation_tolerance_deg))
+    }
+
+    /// The refinement tolerance on f that meets `refine` and the target's position and
+    /// orientation tolerances together: their smallest (orientation in radians). Each error
+    /// is bounded by `f = ‖(e_p, e_o)‖₂`, so `f ≤` it meets both.
+    pub fn refine_with_pose_tolerances(
+        &self,
+        refine: Option<f64>,
+    ) -> Result<Option<f64>, CliError> {
+        let (p, o) = self.pose_tolerances()?;
+        Ok([refine, p, o.map(f64::to_radians)]
+            .into_iter()
+            .flatten()
+            .reduce(f64::min))
     }
 
     /// `[check] max_base_disturbance_deg`.
@@ -365,6 +401,7 @@ impl LoadedTask {
         if let Some(a) = overrides.refine_against {
             config.refine_against = a;
         }
+        config.refine_tolerance = self.refine_with_pose_tolerances(config.refine_tolerance)?;
         config.validate(capacity).map_err(|e| {
             let flag = e.param().and_then(|p| overrides.flag_for(p));
             match flag {

@@ -905,3 +905,58 @@ fn completions_and_man_pages() {
         "{page}"
     );
 }
+
+/// `[target] position_tolerance_m` and `orientation_tolerance_deg`: the plan is refined until
+/// both errors are within them, `check` holds it to each, and a bad value is named.
+/// Verifies RL-SIM-TASK-005.
+#[test]
+fn pose_tolerances_are_met_and_checked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = task_with(tmp.path(), |t| {
+        t.replace(
+            "[target]\n",
+            "[target]\nposition_tolerance_m = 1e-4\norientation_tolerance_deg = 0.001\n",
+        )
+    });
+    let out = tmp.path().join("out");
+    let r = host_sim()
+        .arg("plan")
+        .arg(&task)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    let bundle: toml::Table =
+        toml::from_str(&std::fs::read_to_string(out.join("task.toml")).unwrap()).unwrap();
+    let tol = bundle["planner"]["refine_tolerance"].as_float().unwrap();
+    assert_eq!(tol, 1e-4_f64.min(0.001_f64.to_radians()));
+    assert!(plan["position_error_m"].as_f64().unwrap() <= 1e-4);
+    assert!(plan["orientation_error_deg"].as_f64().unwrap() <= 0.001);
+    let c = host_sim().arg("check").arg(&out).output().unwrap();
+    let text = String::from_utf8_lossy(&c.stdout);
+    assert!(c.status.success(), "{text}");
+    assert!(text.contains("[target] position_tolerance_m"), "{text}");
+    assert!(
+        text.contains("[target] orientation_tolerance_deg"),
+        "{text}"
+    );
+
+    let bad = task_with(tmp.path(), |t| {
+        t.replace("[target]\n", "[target]\nposition_tolerance_m = -1.0\n")
+    });
+    let out2 = tmp.path().join("out2");
+    let r = host_sim()
+        .arg("plan")
+        .arg(&bad)
+        .arg("--out")
+        .arg(&out2)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{err}");
+    assert!(err.contains("[target] position_tolerance_m = -1"), "{err}");
+    assert!(!out2.exists());
+}

@@ -188,6 +188,7 @@ fn verify_n<const N: usize, const K: usize>(
         truth.sample(s);
     }
     lines.push(pose_error(lt, &task, &written, &truth));
+    lines.extend(pose_tolerances(lt, &task, &written, &truth)?);
     lines.push(base_disturbance(lt, &truth));
     Ok(lines)
 }
@@ -361,12 +362,16 @@ fn pose_error<const N: usize, const K: usize>(
     truth: &TruthModel<'_, N, K>,
 ) -> Line {
     let planner = &lt.file.planner;
-    let (tolerance, key) = match planner.refine_tolerance {
-        Some(t) => (t, "[planner] refine_tolerance"),
-        None => (planner.tolerance, "[planner] tolerance"),
+    // A bad [target] tolerance has its own line (pose_tolerances); here it is left out.
+    let refine = lt
+        .refine_with_pose_tolerances(planner.refine_tolerance)
+        .unwrap_or(planner.refine_tolerance);
+    let (tolerance, key) = match (refine, planner.refine_tolerance) {
+        (Some(t), Some(r)) if t == r => (t, "[planner] refine_tolerance"),
+        (Some(t), _) => (t, "[target] pose tolerances"),
+        (None, _) => (planner.tolerance, "[planner] tolerance"),
     };
-    let against_truth =
-        planner.refine_tolerance.is_some() && planner.refine_against == RefineAgainst::Truth;
+    let against_truth = refine.is_some() && planner.refine_against == RefineAgainst::Truth;
     let name = if against_truth {
         "pose error truth_f (truth model)"
     } else {
@@ -394,6 +399,54 @@ fn pose_error<const N: usize, const K: usize>(
         format!("<= {tolerance:e} ({key})"),
         e.norm() <= tolerance,
     )
+}
+
+/// The end pose's position and orientation errors, each within `[target]
+/// position_tolerance_m` and `orientation_tolerance_deg` when the task sets them (the model
+/// that the pose-error line uses).
+fn pose_tolerances<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    written: &[Sample<N>],
+    truth: &TruthModel<'_, N, K>,
+) -> Result<Vec<Line>, CliError> {
+    let (p, o) = lt.pose_tolerances()?;
+    let planner = &lt.file.planner;
+    let against_truth = lt
+        .refine_with_pose_tolerances(planner.refine_tolerance)?
+        .is_some()
+        && planner.refine_against == RefineAgainst::Truth;
+    let (model, pose) = if against_truth {
+        ("truth model", truth.end_pose())
+    } else {
+        (
+            "planner model",
+            written
+                .last()
+                .map(|last| task.end_pose(&last.q, IDENTITY_WXYZ)),
+        )
+    };
+    let e = pose.map(|pose| pose.error_to(task.target()));
+    let mut lines = Vec::new();
+    if let Some(p) = p {
+        let value = e.map(|e| e.position_m());
+        lines.push(line(
+            &format!("end-effector position error ({model})"),
+            value.map_or("no samples".into(), |v| format!("{v:.3e} m")),
+            format!("<= {p:e} m ([target] position_tolerance_m)"),
+            value.is_some_and(|v| v <= p),
+        ));
+    }
+    if let Some(o) = o {
+        let value = e.map(|e| e.orientation_deg());
+        lines.push(line(
+            &format!("end-effector orientation error ({model})"),
+            value.map_or("no samples".into(), |v| format!("{v:.3e} deg")),
+            format!("<= {o:e} deg ([target] orientation_tolerance_deg)"),
+            value.is_some_and(|v| v <= o),
+        ));
+    }
+    Ok(lines)
 }
 
 /// The written path through the truth model, below `[check] max_base_disturbance_deg`.

@@ -119,14 +119,16 @@ pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, Cli
 }
 
 fn build(root: &Path) -> Result<PathBuf, CliError> {
+    eprintln!("building the flight image (scripts/build-firmware.sh; cargo's progress follows)");
+    // Cargo's progress goes straight to the terminal: the first build takes minutes.
     let o = Command::new(root.join("scripts/build-firmware.sh"))
+        .stderr(std::process::Stdio::inherit())
         .output()
         .or_input(|| "cannot run scripts/build-firmware.sh")?;
     if !o.status.success() {
-        return Err(CliError::input(format!(
-            "building the flight image failed (needs Debian's rustc-web, rust-web-src, lld; see .ci/run):\n{}",
-            String::from_utf8_lossy(&o.stderr)
-        )));
+        return Err(CliError::input(
+            "building the flight image failed, see cargo's output above (it needs Debian's rustc-web, rust-web-src and lld; see .ci/run)",
+        ));
     }
     let rel = String::from_utf8_lossy(&o.stdout).trim().to_string();
     Ok(root.join(rel))
@@ -422,6 +424,9 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         plugin_arg.push_str(&format!(",mark={m:x}"));
     }
     let start = Instant::now();
+    let bar = crate::drive::spinner(
+        "running the flight image under QEMU (the reference task takes about 10 s of emulation, C-PSO about 35 s)",
+    );
     let out = Command::new("timeout")
         .arg(timeout_s.to_string())
         .args([
@@ -446,6 +451,7 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         .output()
         .or_input(|| "cannot run qemu-system-arm")?;
     let qemu_seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
     let lines = decode_defmt(&elf_bytes, &out.stdout)?;
     if !out.status.success() {
         return Err(CliError::failed(format!(

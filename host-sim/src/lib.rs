@@ -23,3 +23,4 @@ pub mod records;
 pub mod stats;
 pub mod taskfile;
 pub mod urdf;
+pub mod view;

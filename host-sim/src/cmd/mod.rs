@@ -16,3 +16,4 @@ pub mod record;
 pub mod replay;
 pub mod rollout;
 pub mod target;
+pub mod view;

@@ -30,6 +30,7 @@ enum Command {
     Bench(cmd::bench::Args),
     Completions(cmd::completions::Args),
     Manpage(cmd::manpage::Args),
+    View(cmd::view::Args),
 }
 
 /// Parses the command line, runs the subcommand, maps the result to the exit code (0
@@ -49,6 +50,7 @@ pub fn main() -> ExitCode {
         Command::Bench(a) => a.run(),
         Command::Completions(a) => a.run(),
         Command::Manpage(a) => a.run(),
+        Command::View(a) => a.run(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,7 +5,7 @@
 //! The binary is a thin CLI over this library; tests use the library directly.
 //!
 //! Data flows one way: `taskfile`/`urdf` (inputs) → `drive` (the planner) → `artifacts`,
-//! `records`, `plots` (outputs, through `output`'s atomic writes) → `cmd/*` (one leaf per
+//! `records`, `plots`, `view` (outputs, through `output`'s atomic writes) → `cmd/*` (one leaf per
 //! subcommand, which only these shared modules feed).
 // A host tool: an out-of-range index here is a bug that should stop the program loudly.
 #![allow(clippy::indexing_slicing)]
@@ -23,3 +23,4 @@ pub mod records;
 pub mod stats;
 pub mod taskfile;
 pub mod urdf;
+pub mod view;

@@ -5,7 +5,8 @@
 //! never leaves a half-written result. An existing output directory is only replaced if
 //! host-sim made it (it holds the marker file [`MARKER`]); anything else is refused.
 //! [`write_atomic`] does the same for a single file (records), and [`CsvSink`] streams the
-//! trajectory in shortest round-trip form (parsing gives back the core's bits).
+//! trajectory in shortest round-trip form (parsing gives back the core's bits);
+//! [`read_trajectory_csv`] reads it back (`check`, `view`).
 
 use crate::error::{CliError, Context};
 use reactionless::Sample;
@@ -192,4 +193,51 @@ impl CsvSink {
         }
         self.out.flush().or_input(|| "writing trajectory.csv")
     }
+}
+
+/// Parses `trajectory.csv` as [`CsvSink`] writes it (header, then rows of `1 + 2N`
+/// numbers, every value exactly as written); errors name `dir` and the row.
+pub fn read_trajectory_csv<const N: usize>(
+    dir: &Path,
+    csv: &str,
+) -> Result<Vec<Sample<N>>, CliError> {
+    let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
+    let mut lines = csv.lines();
+    let header = lines.next().ok_or_else(|| err("empty file".into()))?;
+    let mut want = String::from("t");
+    for i in 1..=N {
+        want.push_str(&format!(",q{i}"));
+    }
+    for i in 1..=N {
+        want.push_str(&format!(",qd{i}"));
+    }
+    if header != want {
+        return Err(err(format!("header {header:?}, expected {want:?}")));
+    }
+    let mut out = Vec::new();
+    for (row, text) in lines.enumerate() {
+        let values: Vec<f64> = text
+            .split(',')
+            .map(|v| v.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
+        if values.len() != 1 + 2 * N {
+            return Err(err(format!(
+                "row {}: {} values, expected {}",
+                row + 1,
+                values.len(),
+                1 + 2 * N
+            )));
+        }
+        let mut s = Sample {
+            step: row as u32,
+            t: values[0],
+            q: [0.0; N],
+            qd: [0.0; N],
+        };
+        s.q.copy_from_slice(&values[1..=N]);
+        s.qd.copy_from_slice(&values[N + 1..]);
+        out.push(s);
+    }
+    Ok(out)
 }

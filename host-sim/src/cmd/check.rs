@@ -17,6 +17,7 @@
 use crate::args::parse_eta;
 use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
 use crate::error::{CliError, Context};
+use crate::output::read_trajectory_csv;
 use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::with_dims;
 use reactionless::integrator::euler_step;
@@ -113,49 +114,6 @@ pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
     with_dims!(lt.chain.dof(), verify_n, &lt, dir, &summary.eta, &csv)
 }
 
-/// Parses the CSV as written: header, then rows of `1 + 2N` numbers.
-fn parse_csv<const N: usize>(dir: &Path, csv: &str) -> Result<Vec<Sample<N>>, CliError> {
-    let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
-    let mut lines = csv.lines();
-    let header = lines.next().ok_or_else(|| err("empty file".into()))?;
-    let mut want = String::from("t");
-    for i in 1..=N {
-        let _ = write!(want, ",q{i}");
-    }
-    for i in 1..=N {
-        let _ = write!(want, ",qd{i}");
-    }
-    if header != want {
-        return Err(err(format!("header {header:?}, expected {want:?}")));
-    }
-    let mut out = Vec::new();
-    for (row, text) in lines.enumerate() {
-        let values: Vec<f64> = text
-            .split(',')
-            .map(|v| v.parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
-        if values.len() != 1 + 2 * N {
-            return Err(err(format!(
-                "row {}: {} values, expected {}",
-                row + 1,
-                values.len(),
-                1 + 2 * N
-            )));
-        }
-        let mut s = Sample {
-            step: row as u32,
-            t: values[0],
-            q: [0.0; N],
-            qd: [0.0; N],
-        };
-        s.q.copy_from_slice(&values[1..=N]);
-        s.qd.copy_from_slice(&values[N + 1..]);
-        out.push(s);
-    }
-    Ok(out)
-}
-
 fn column_name<const N: usize>(c: usize) -> String {
     match c {
         0 => "t".into(),
@@ -176,7 +134,7 @@ fn verify_n<const N: usize, const K: usize>(
 ) -> Result<Vec<Line>, CliError> {
     let task = lt.task::<N, K>()?;
     let eta = parse_eta::<K>(eta)?;
-    let written = parse_csv::<N>(dir, csv)?;
+    let written = read_trajectory_csv::<N>(dir, csv)?;
     let mut lines = shape(&task, &written);
     lines.push(matches_fresh_rollout(&task, &eta, &written));
     lines.push(follows_integrator(&task, &written));

@@ -1,6 +1,6 @@
 //! One leaf per subcommand. Each file owns its `clap::Args` struct (flags and help) and
 //! `Args::run`; leaves import only the shared modules (`args`, `artifacts`, `drive`,
-//! `records`, `stats`, `output`, `taskfile`, `urdf`, `plots`), never each other. A new
+//! `records`, `stats`, `output`, `taskfile`, `urdf`, `plots`, `view`), never each other. A new
 //! subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
@@ -16,3 +16,4 @@ pub mod record;
 pub mod replay;
 pub mod rollout;
 pub mod target;
+pub mod view;

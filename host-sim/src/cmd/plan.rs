@@ -1,5 +1,6 @@
 //! `host-sim plan`: C-PSO (and refinement, if asked) on a task; writes `plan.json`,
-//! `trajectory.csv` and `summary.json` atomically.
+//! `trajectory.csv` and `summary.json` atomically (with `--plots` also the figures and the
+//! 3-D replay page `view.html`).
 //!
 //! The trajectory is the plan's η rolled out again by the same code; it must reproduce the
 //! outcome the planner evaluated bit for bit (checked here, so a mismatch is never written).
@@ -13,6 +14,7 @@ use crate::drive::{self, HOST_CAPACITY};
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::taskfile::{self, LoadedTask};
+use crate::view;
 use crate::with_dims;
 use reactionless::{PlannerConfig, RefineAgainst, RefineStop};
 use serde::Serialize;
@@ -106,7 +108,8 @@ pub struct Args {
     out: PathBuf,
     #[command(flatten)]
     planning: PlanArgs,
-    /// Also write figures (PNG and SVG), convergence included.
+    /// Also write figures (PNG and SVG), convergence included, and the 3-D replay page
+    /// view.html.
     #[arg(long)]
     plots: bool,
 }
@@ -151,6 +154,13 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
             first_hit: p.first_hit,
         };
         write_figures(lt, &task, trace, Some(plan), &dir)?;
+    }
+    if args.plots {
+        // From the files just written, exactly as `host-sim view DIR` reads them.
+        dir.write(
+            "view.html",
+            view::render_dir(&dir.path(""), &args.out)?.as_bytes(),
+        )?;
     }
     let json = PlanJson {
         status: if converged {

@@ -1,13 +1,15 @@
 //! `host-sim rollout`: one η through the reference discretization, with the truth model.
 //!
 //! Writes `trajectory.csv` (every sample, s / rad / rad/s), `summary.json` and the task
-//! bundle into the output directory, atomically; with `--plots` the figures too.
+//! bundle into the output directory, atomically; with `--plots` the figures and the 3-D
+//! replay page `view.html` too.
 
 use crate::args::{List, eta_error, parse_eta, parse_list};
 use crate::artifacts::{summary, write_bundle, write_figures, write_rollout};
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::taskfile::{self, LoadedTask};
+use crate::view;
 use crate::with_dims;
 use reactionless::Rollout;
 use std::path::{Path, PathBuf};
@@ -23,7 +25,7 @@ pub struct Args {
     /// Output directory (replaced atomically).
     #[arg(long)]
     out: PathBuf,
-    /// Also write figures (PNG and SVG).
+    /// Also write figures (PNG and SVG) and the 3-D replay page view.html.
     #[arg(long)]
     plots: bool,
 }
@@ -62,6 +64,10 @@ fn run_n<const N: usize, const K: usize>(
     write_bundle(lt, &dir, None, None)?;
     if let Some(trace) = run.trace {
         write_figures(lt, &task, trace, None, &dir)?;
+        dir.write(
+            "view.html",
+            view::render_dir(&dir.path(""), out)?.as_bytes(),
+        )?;
     }
     let path = dir.commit()?;
     eprintln!(

@@ -1,0 +1,341 @@
+//! The 3-D replay page of an output directory: one self-contained HTML file.
+//!
+//! Owns [`ViewData`] (everything the page draws, computed here in Rust, per sample) and
+//! [`render_dir`] / [`write_dir`], which read a `plan` or `rollout` directory **as
+//! written** (`task.toml`, `robot.urdf`, `summary.json`, `trajectory.csv`) and fill the
+//! page template `host-sim/assets/view.html` (hand-written Canvas 2-D and JavaScript, no
+//! library, nothing loaded from the network: scripts, styles and data are inline).
+//!
+//! The page only indexes the data: for every written sample it holds `t`, `q`, `q̇`, the
+//! planner-model end-effector position (full precision, computed by the same
+//! [`reactionless::Task::end_pose`] that writes `summary.json`, so the last sample is
+//! `summary.json`'s `end_pose.position` to the bit; checked here) and the truth model's
+//! base rotation (10 midpoint sub-steps, zero momentum, as `summary.json`), plus the
+//! drawing geometry (joint positions and axes, end-effector attitude, inertial frame,
+//! rounded to 1e-5 m / 1e-4 since it is only drawn). `FILE.html?t=T` shows the sample
+//! nearest `T` (no interpolation) and writes `<pre id="rl-state">` with JSON
+//! `{t, sample, q, ee_position_m, base_angle_deg}`; see docs/view.md.
+//!
+//! The arm is drawn in the planner model (base attitude identity, base placed by
+//! centre-of-mass conservation); the truth model's base attitude (~1e-3°) is drawn as a
+//! magnified triad at the base centre of mass, its true value printed beside it.
+
+use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
+use crate::error::{CliError, Context};
+use crate::output::{read_trajectory_csv, write_atomic};
+use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
+use crate::with_dims;
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
+use reactionless::{Frames, IDENTITY_WXYZ, Sink, Task, TruthModel};
+use serde::Serialize;
+use std::path::Path;
+
+/// The page template; `/*RL_DATA*/null` is replaced by the [`ViewData`] JSON.
+static TEMPLATE: &str = include_str!("../assets/view.html");
+
+/// The placeholder in [`TEMPLATE`].
+const PLACEHOLDER: &str = "/*RL_DATA*/null";
+
+/// The largest drawn base rotation (deg) the magnification aims at.
+const MAGNIFIED_DEG: f64 = 20.0;
+
+/// Everything the page shows (SI units and radians, except names ending `_deg`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewData {
+    /// What made it: task file, build.
+    pub stamp: String,
+    /// Robot name (URDF).
+    pub robot: String,
+    /// Joint count N.
+    pub n: usize,
+    /// Joint names (URDF).
+    pub joint_names: Vec<String>,
+    /// Lower joint limits (rad).
+    pub lower: Vec<f64>,
+    /// Upper joint limits (rad).
+    pub upper: Vec<f64>,
+    /// Joint rate limits (rad/s).
+    pub qd_limit: Vec<f64>,
+    /// Sample times (s) as written.
+    pub t: Vec<f64>,
+    /// Joint positions per sample (rad), as written.
+    pub q: Vec<Vec<f64>>,
+    /// Joint rates per sample (rad/s), as written.
+    pub qd: Vec<Vec<f64>>,
+    /// Planner-model end-effector position per sample (m, inertial frame), full precision.
+    pub ee: Vec<[f64; 3]>,
+    /// Truth-model base rotation angle per sample (deg).
+    pub base_angle_deg: Vec<f64>,
+    /// Truth-model base attitude per sample (unit quaternion `[w, x, y, z]`).
+    pub base_wxyz: Vec<[f64; 4]>,
+    /// Drawing geometry per sample (m, inertial frame, rounded to 1e-5 m and 1e-4):
+    /// base origin (3), joint positions (3N), joint axes (3N), end-effector position (3)
+    /// and attitude (9, row major).
+    pub draw: Vec<Vec<f64>>,
+    /// The base as a box of uniform density with the base's mass and inertia.
+    pub base_box: BaseBox,
+    /// Target end-effector pose: position (m) and attitude (row-major matrix).
+    pub target: Frame,
+    /// The drawn base attitude is the truth attitude's angle times this.
+    pub magnification: f64,
+    /// Largest base rotation over the motion (deg, truth model).
+    pub base_disturbance_deg: f64,
+    /// The base-disturbance requirement (deg).
+    pub base_limit_deg: f64,
+}
+
+/// A position and an attitude.
+#[derive(Debug, Clone, Serialize)]
+pub struct Frame {
+    /// Position (m, inertial frame).
+    pub position: [f64; 3],
+    /// Attitude, row major.
+    pub rotation: [f64; 9],
+}
+
+/// The base's box, in the base frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct BaseBox {
+    /// Centre: the base centre of mass (m).
+    pub center: [f64; 3],
+    /// Edge lengths along the principal axes (m).
+    pub size: [f64; 3],
+    /// Principal axes as columns, row major.
+    pub axes: [f64; 9],
+}
+
+/// The box of uniform density with mass `m` (kg) and principal moments `i` (kg m²):
+/// `I₁ = m (b² + c²)/12`, …, so `a² = 6 (I₂ + I₃ − I₁)/m`. Moments that break the
+/// triangle inequality (no box has them) give edges of at least 1 cm.
+fn box_edges(m: f64, i: [f64; 3]) -> [f64; 3] {
+    let edge = |a: f64, b: f64, c: f64| (6.0 * (b + c - a) / m).max(1e-4).sqrt();
+    [
+        edge(i[0], i[1], i[2]),
+        edge(i[1], i[2], i[0]),
+        edge(i[2], i[0], i[1]),
+    ]
+}
+
+fn rows(m: &Matrix3<f64>) -> [f64; 9] {
+    [
+        m[(0, 0)],
+        m[(0, 1)],
+        m[(0, 2)],
+        m[(1, 0)],
+        m[(1, 1)],
+        m[(1, 2)],
+        m[(2, 0)],
+        m[(2, 1)],
+        m[(2, 2)],
+    ]
+}
+
+/// `v` rounded to `1/scale` (drawing only).
+fn round(v: f64, scale: f64) -> f64 {
+    (v * scale).round() / scale
+}
+
+/// A magnification of 1, 2 or 5 × 10^k that draws `max_deg` as at most
+/// [`MAGNIFIED_DEG`] (1 when nothing turned).
+fn magnification(max_deg: f64) -> f64 {
+    if !(max_deg.is_finite() && max_deg > 0.0) {
+        return 1.0;
+    }
+    let raw = MAGNIFIED_DEG / max_deg;
+    let decade = 10f64.powf(raw.log10().floor());
+    let mantissa = [5.0, 2.0, 1.0]
+        .into_iter()
+        .find(|m| m * decade <= raw)
+        .unwrap_or(1.0);
+    (mantissa * decade).max(1.0)
+}
+
+fn read(dir: &Path, name: &str) -> Result<String, CliError> {
+    std::fs::read_to_string(dir.join(name)).map_err(|e| {
+        CliError::input(format!(
+            "{}: cannot read {name}: {e} (give the --out directory of plan or rollout)",
+            dir.display()
+        ))
+    })
+}
+
+/// The page data of output directory `dir` (see the module doc); the page names the
+/// directory `shown` (plan and rollout write into a temporary directory first).
+pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
+    if !dir.is_dir() {
+        return Err(CliError::input(format!(
+            "{}: no such directory (give the --out directory of plan or rollout)",
+            dir.display()
+        )));
+    }
+    let task_text = read(dir, BUNDLE_TASK)?;
+    let urdf_text = read(dir, BUNDLE_URDF)?;
+    let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
+    let summary: Summary = serde_json::from_str(&read(dir, "summary.json")?)
+        .or_input(|| format!("{}: summary.json", dir.display()))?;
+    let csv = read(dir, "trajectory.csv")?;
+    with_dims!(lt.chain.dof(), data_n, &lt, dir, shown, &summary, &csv)
+}
+
+fn data_n<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    dir: &Path,
+    shown: &Path,
+    summary: &Summary,
+    csv: &str,
+) -> Result<ViewData, CliError> {
+    let task: Task<N, K> = lt.task::<N, K>()?;
+    let samples = read_trajectory_csv::<N>(dir, csv)?;
+    if samples.is_empty() {
+        return Err(CliError::input(format!(
+            "{}: trajectory.csv has no samples",
+            dir.display()
+        )));
+    }
+    let robot = task.robot();
+    let com0 = task.com0();
+    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
+    let n = samples.len();
+    let (mut ee, mut angle, mut wxyz, mut draw) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for s in &samples {
+        truth.sample(s);
+        let frames = Frames::new(robot, &s.q);
+        let end = task.end_pose(&s.q, IDENTITY_WXYZ);
+        ee.push(end.position);
+        angle.push(truth.angle().to_degrees());
+        wxyz.push(truth.attitude());
+        // Planner model: identity base attitude, base origin p₀ = r_g(0) − r_g(q).
+        let p0 = com0 - frames.com;
+        let mut row = Vec::with_capacity(3 + 6 * N + 12);
+        let mm = |v: f64| round(v, 1e5);
+        row.extend(p0.iter().map(|&v| mm(v)));
+        for l in &frames.links {
+            row.extend((p0 + l.joint).iter().map(|&v| mm(v)));
+        }
+        for l in &frames.links {
+            row.extend(l.axis().iter().map(|&v| round(v, 1e4)));
+        }
+        row.extend(end.position.iter().map(|&v| mm(v)));
+        row.extend(rows(&frames.ee_rotation).iter().map(|&v| round(v, 1e4)));
+        draw.push(row);
+    }
+    if let Some(e) = truth.error() {
+        return Err(CliError::failed(format!("truth model failed: {e}")));
+    }
+    let last = ee.last().copied().unwrap_or([f64::NAN; 3]);
+    if last != summary.end_pose.position {
+        return Err(CliError::input(format!(
+            "{}: the end pose of trajectory.csv's last sample, {last:?}, is not summary.json's \
+             end_pose.position {:?} (files from different runs?)",
+            dir.display(),
+            summary.end_pose.position
+        )));
+    }
+    let base = &robot.desc().base;
+    let inertia = base.inertia.to_sym();
+    let local = Matrix3::new(
+        inertia.xx, inertia.xy, inertia.xz, inertia.xy, inertia.yy, inertia.yz, inertia.xz,
+        inertia.yz, inertia.zz,
+    );
+    let r = base.inertial.rotation();
+    let eig = (r * local * r.transpose()).symmetric_eigen();
+    let moments = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+    let target = task.target();
+    let [w, x, y, z] = target.quat_wxyz;
+    let target_rot = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
+        .to_rotation_matrix()
+        .into_inner();
+    let max_deg = truth.max_angle().to_degrees();
+    Ok(ViewData {
+        stamp: format!(
+            "{} · host-sim {} ({})",
+            shown.display(),
+            env!("CARGO_PKG_VERSION"),
+            crate::records::Build::current().git_revision
+        ),
+        robot: lt.chain.name.clone(),
+        n: N,
+        joint_names: lt.chain.joint_names.clone(),
+        lower: robot.lower().to_vec(),
+        upper: robot.upper().to_vec(),
+        qd_limit: lt.chain.joints.iter().map(|j| j.velocity).collect(),
+        t: samples.iter().map(|s| s.t).collect(),
+        q: samples.iter().map(|s| s.q.to_vec()).collect(),
+        qd: samples.iter().map(|s| s.qd.to_vec()).collect(),
+        ee,
+        base_angle_deg: angle,
+        base_wxyz: wxyz,
+        draw,
+        base_box: BaseBox {
+            center: base.inertial.xyz,
+            size: box_edges(base.mass, moments),
+            axes: rows(&eig.eigenvectors),
+        },
+        target: Frame {
+            position: target.position,
+            rotation: rows(&target_rot),
+        },
+        magnification: magnification(max_deg),
+        base_disturbance_deg: max_deg,
+        base_limit_deg: lt.max_base_disturbance_deg(),
+    })
+}
+
+/// The page for `data`: the template with the data inlined (`<` escaped as `\u003c`, so
+/// nothing in the data can close the script element).
+pub fn page(data: &ViewData) -> Result<String, CliError> {
+    let json = serde_json::to_string(data)
+        .or_internal(|| "view data JSON")?
+        .replace('<', "\\u003c");
+    if !TEMPLATE.contains(PLACEHOLDER) {
+        return Err(CliError::internal(
+            "the view template has no data placeholder",
+        ));
+    }
+    Ok(TEMPLATE.replacen(PLACEHOLDER, &json, 1))
+}
+
+/// The page of output directory `dir`, naming it `shown`.
+pub fn render_dir(dir: &Path, shown: &Path) -> Result<String, CliError> {
+    page(&data_of_dir(dir, shown)?)
+}
+
+/// Writes the page of output directory `dir` to `out` (atomically).
+pub fn write_dir(dir: &Path, out: &Path) -> Result<(), CliError> {
+    let html = render_dir(dir, dir)?;
+    write_atomic(out, html.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// A cube of edge a and mass m has I = m a²/6 about each axis: the edges come back.
+    #[test]
+    fn a_cube_gives_back_its_edges() {
+        let (m, a) = (3.0, 0.7);
+        let i = m * a * a / 6.0;
+        for e in box_edges(m, [i, i, i]) {
+            assert!((e - a).abs() < 1e-12);
+        }
+    }
+
+    /// The magnification is 1, 2 or 5 × 10^k and draws the largest angle at ≤ 20°.
+    #[test]
+    fn magnification_is_a_round_number_within_twenty_degrees() {
+        assert_eq!(magnification(1.5e-3), 1e4);
+        assert_eq!(magnification(3e-3), 5e3);
+        assert_eq!(magnification(0.0), 1.0);
+        assert_eq!(magnification(90.0), 1.0);
+        for d in [1.234e-3, 7.7e-4, 0.05] {
+            let m = magnification(d);
+            assert!(m * d <= MAGNIFIED_DEG && m * d > MAGNIFIED_DEG / 5.0 - 1e-9);
+        }
+    }
+}

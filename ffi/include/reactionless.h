@@ -16,6 +16,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+/* Initialises a planner with this header's ABI version and size (zlib's deflateInit style). */
+#define RL_PLANNER_INIT(p) rl_planner_init((p), RL_ABI_VERSION, sizeof(rl_planner))
 
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
@@ -42,6 +44,12 @@
  Words (u64) of stream storage inside [`rl_setpoints`].
  */
 #define RL_SETPOINTS_WORDS 192
+
+/*
+ Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at
+ most this), for sizing a static buffer or a CDS block at compile time.
+ */
+#define RL_CHECKPOINT_CAPACITY ((RL_PLANNER_WORDS * 8) + 64)
 
 /*
  A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_DONE`, or an error
@@ -424,6 +432,3 @@ const char *rl_status_str(rl_status s);
 #endif  // __cplusplus
 
 #endif  /* REACTIONLESS_H */
-
-/* Initialises a planner with this header's ABI version and size (zlib's deflateInit style). */
-#define RL_PLANNER_INIT(p) rl_planner_init((p), RL_ABI_VERSION, sizeof(rl_planner))

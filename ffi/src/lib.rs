@@ -69,6 +69,9 @@ pub const RL_ETA_LEN: usize = 8;
 pub const RL_PLANNER_WORDS: usize = 4864;
 /// Words (u64) of stream storage inside [`rl_setpoints`].
 pub const RL_SETPOINTS_WORDS: usize = 192;
+/// Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at
+/// most this), for sizing a static buffer or a CDS block at compile time.
+pub const RL_CHECKPOINT_CAPACITY: usize = RL_PLANNER_WORDS * 8 + 64;
 
 /// A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_DONE`, or an error
 /// (every error is negative). [`rl_status_str`] names each.
@@ -140,6 +143,7 @@ const _: () = assert!(align_of::<FlightPlanner>() <= align_of::<u64>());
 const _: () = assert!(size_of::<FlightSetpoints>() <= RL_SETPOINTS_WORDS * 8);
 const _: () = assert!(align_of::<FlightSetpoints>() <= align_of::<u64>());
 const _: () = assert!(RL_ETA_LEN == 2 * (RL_JOINTS - 3));
+const _: () = assert!(checkpoint::LEN <= RL_CHECKPOINT_CAPACITY);
 
 /// A planner in caller-owned storage (static app data). Initialise with
 /// `rl_planner_init`; the members are private to the library.

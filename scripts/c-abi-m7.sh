@@ -13,8 +13,10 @@ cd "$(dirname "$0")/.."
 out=target/c-abi-m7
 mkdir -p "$out"
 
+# Only the staticlib: with the rlib crate type as well, rustc skips LTO and the archive holds
+# every crate's objects (core's panic machinery included) instead of one optimised object.
 RUSTC=/usr/bin/rustc RUSTC_BOOTSTRAP=1 \
-  cargo --config .ci/thumb.toml build -q -p reactionless-ffi --release
+  cargo --config .ci/thumb.toml rustc -q -p reactionless-ffi --release --crate-type staticlib
 lib=target/thumb/thumbv7em-none-eabihf/release/libreactionless_ffi.a
 ls -l "$lib"
 if arm-none-eabi-nm -u "$lib" 2>/dev/null | grep -q panic_path_survived; then

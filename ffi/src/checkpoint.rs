@@ -88,6 +88,8 @@ impl core::error::Error for Fault {}
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
 
+// Const evaluation only: an index out of range would be a compile error, not a panic.
+#[allow(clippy::indexing_slicing)]
 const fn fnv_u64(mut h: u64, v: u64) -> u64 {
     let b = v.to_le_bytes();
     let mut i = 0;
@@ -98,6 +100,7 @@ const fn fnv_u64(mut h: u64, v: u64) -> u64 {
     h
 }
 
+#[allow(clippy::indexing_slicing)]
 const fn fnv_bytes(mut h: u64, b: &[u8]) -> u64 {
     let mut i = 0;
     while i < b.len() {
@@ -110,20 +113,24 @@ const fn fnv_bytes(mut h: u64, b: &[u8]) -> u64 {
 /// FNV-1a-64 of a task block's bytes: which task a checkpoint belongs to.
 #[must_use]
 pub fn task_digest(block: &[u8]) -> u64 {
-    block
-        .iter()
-        .fold(FNV_OFFSET, |h, b| (h ^ u64::from(*b)).wrapping_mul(FNV_PRIME))
+    block.iter().fold(FNV_OFFSET, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(FNV_PRIME)
+    })
 }
 
 /// The layout fingerprint: FNV-1a-64 over the size and alignment of the planner and of
 /// the state types it holds, the crate version, the pointer width and the endianness.
+#[allow(clippy::indexing_slicing)]
 pub const LAYOUT: u64 = {
     let shapes = [
         (size_of::<FlightPlanner>(), align_of::<FlightPlanner>()),
         (size_of::<Task<7, 4>>(), align_of::<Task<7, 4>>()),
         (size_of::<Rollout<7, 4>>(), align_of::<Rollout<7, 4>>()),
         (size_of::<Setpoints<7, 4>>(), align_of::<Setpoints<7, 4>>()),
-        (size_of::<Multistart<7, 4>>(), align_of::<Multistart<7, 4>>()),
+        (
+            size_of::<Multistart<7, 4>>(),
+            align_of::<Multistart<7, 4>>(),
+        ),
         (size_of::<Cpso<4, 64>>(), align_of::<Cpso<4, 64>>()),
         (size_of::<Swarm<4, 64>>(), align_of::<Swarm<4, 64>>()),
         (size_of::<Plan<7, 4>>(), align_of::<Plan<7, 4>>()),
@@ -214,8 +221,7 @@ pub fn verify(buf: &[u8], task: Option<u64>) -> Result<u64, Fault> {
     if u32_at(buf, 8) != FORMAT || u32_at(buf, 12) != crate::RL_ABI_VERSION {
         return Err(Fault::Version);
     }
-    if u32_at(buf, 16) as usize != LEN || u32_at(buf, 20) as usize != size_of::<FlightPlanner>()
-    {
+    if u32_at(buf, 16) as usize != LEN || u32_at(buf, 20) as usize != size_of::<FlightPlanner>() {
         return Err(Fault::Length);
     }
     if u64_at(buf, 24) != LAYOUT {

@@ -575,7 +575,10 @@ pub unsafe extern "C" fn rl_planner_frame_budget(
 /// initialised); `p` NULL or an initialised planner; neither accessed elsewhere.
 #[allow(unsafe_code)]
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn rl_setpoints_init(s: *mut rl_setpoints, p: *const rl_planner) -> rl_status {
+pub unsafe extern "C" fn rl_setpoints_init(
+    s: *mut rl_setpoints,
+    p: *const rl_planner,
+) -> rl_status {
     // SAFETY: as_ref checks for NULL; the contract makes the reference valid.
     let Some(p) = (unsafe { p.as_ref() }) else {
         return RL_E_NULL;

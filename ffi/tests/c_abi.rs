@@ -69,7 +69,14 @@ fn c_program_matches_the_record_across_a_checkpoint() {
     let c = root().join("ffi/tests/c");
     let exe = dir.join("abi_test");
     run(Command::new("gcc")
-        .args(["-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror"])
+        .args([
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Wpedantic",
+            "-Werror",
+        ])
         .arg("-I")
         .arg(root().join("ffi/include"))
         .arg(c.join("abi_test.c"))

@@ -3,7 +3,12 @@
 //! bit for bit, as one that never stopped; damaged or foreign checkpoints are rejected.
 //!
 //! Requirements: RL-FFI (docs/requirements.md).
-#![allow(clippy::unwrap_used, clippy::panic, clippy::indexing_slicing, missing_docs)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    missing_docs
+)]
 
 use reactionless::Status;
 use reactionless::block::decode;
@@ -39,7 +44,10 @@ fn restore_continues_bit_identically() {
     };
     let mut first = loaded(&bytes);
     for _ in 0..25 {
-        assert!(matches!(first.step(budget, &mut ()).unwrap(), Status::Running(_)));
+        assert!(matches!(
+            first.step(budget, &mut ()).unwrap(),
+            Status::Running(_)
+        ));
     }
     let mut buf = vec![0u8; LEN];
     assert_eq!(checkpoint::write(&first, task, &mut buf), Ok(LEN));
@@ -68,10 +76,16 @@ fn damaged_checkpoints_are_rejected_by_kind() {
     let task = checkpoint::task_digest(&bytes);
     let p = loaded(&bytes);
     let mut buf = vec![0u8; LEN];
-    assert_eq!(checkpoint::write(&p, task, &mut buf[..LEN - 1]), Err(Fault::Buffer));
+    assert_eq!(
+        checkpoint::write(&p, task, &mut buf[..LEN - 1]),
+        Err(Fault::Buffer)
+    );
     checkpoint::write(&p, task, &mut buf).unwrap();
     assert_eq!(checkpoint::verify(&buf, Some(task)), Ok(task));
-    assert_eq!(checkpoint::verify(&buf[..LEN - 1], None), Err(Fault::Length));
+    assert_eq!(
+        checkpoint::verify(&buf[..LEN - 1], None),
+        Err(Fault::Length)
+    );
     let other = checkpoint::task_digest(&block("tests/records/tasks/chaser7/task_002.toml"));
     assert_ne!(other, task);
     assert_eq!(checkpoint::verify(&buf, Some(other)), Err(Fault::Task));

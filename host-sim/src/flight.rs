@@ -40,4 +40,3 @@ pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, Cli
     encode(&block, &mut buf).or_internal(|| "task block")?;
     Ok(buf)
 }
-

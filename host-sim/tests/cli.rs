@@ -915,7 +915,12 @@ fn block_writes_the_bytes_target_gives_qemu() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("paper.block");
     host_sim()
-        .args(["block", paper().to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "block",
+            paper().to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .assert()
         .success();
     let written = std::fs::read(&out).unwrap();
@@ -929,7 +934,12 @@ fn block_writes_the_bytes_target_gives_qemu() {
     let six = root().join("tests/records/tasks/arm6/task_002.toml");
     let bad = tmp.path().join("six.block");
     host_sim()
-        .args(["block", six.to_str().unwrap(), "--out", bad.to_str().unwrap()])
+        .args([
+            "block",
+            six.to_str().unwrap(),
+            "--out",
+            bad.to_str().unwrap(),
+        ])
         .assert()
         .code(2);
     assert!(!bad.exists());

@@ -18,8 +18,8 @@
 //! Exit 0 only when bit-identical and within budgets; 1 otherwise; 2 for bad input.
 
 use crate::args::PlanArgs;
-pub use crate::flight::{FLIGHT_N, FLIGHT_P, task_block};
 use crate::error::{CliError, Context};
+pub use crate::flight::{FLIGHT_N, FLIGHT_P, task_block};
 use crate::records::{Outputs, PoseBits, bits, first_difference, outputs_of};
 use crate::taskfile;
 use object::{Object, ObjectSection, ObjectSymbol};

@@ -20,9 +20,10 @@ extern const uint8_t _task_block[], _other_block[];
 int main(void);
 void reset_handler(void);
 
-__attribute__((section(".vectors"), used)) static const void *const vectors[2] = {
-    &_stack_top,
-    (const void *)reset_handler,
+/* The initial stack pointer and the reset vector (Thumb address: the compiler sets bit 0). */
+__attribute__((section(".vectors"), used)) static const uintptr_t vectors[2] = {
+    (uintptr_t)&_stack_top,
+    (uintptr_t)reset_handler,
 };
 
 static int semihost(int op, const void *arg) {

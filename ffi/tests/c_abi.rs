@@ -3,7 +3,13 @@
 //! and compared with host-sim's record of the same task; the header compiled as C++11.
 //!
 //! Requirements: RL-FFI (docs/requirements.md).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, missing_docs)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    missing_docs
+)]
 
 use host_sim::taskfile::{self, Overrides};
 use std::collections::BTreeMap;
@@ -85,6 +91,7 @@ fn c_program_matches_the_record_across_a_checkpoint() {
         .args(["-lpthread", "-ldl", "-lm", "-o"])
         .arg(&exe));
     let text = run(Command::new(&exe).arg(&block).arg(&other));
+    println!("{text}");
     let got = parse(&text);
 
     let lt = taskfile::load(&root().join("spec/tasks/paper.toml")).unwrap();

@@ -44,7 +44,7 @@ timeout 1200 qemu-system-arm -machine mps2-an500 -cpu cortex-m7 -nographic -moni
   -icount shift=0,align=off,sleep=off \
   -device loader,file="$out/paper.block",addr=0x203f0000 \
   -device loader,file="$out/other.block",addr=0x203f8000 \
-  -kernel "$out/abi_test.elf" | tee "$out/output.txt"
+  -kernel "$out/abi_test.elf" 2>&1 | tee "$out/output.txt"
 
 python3 - "$out/output.txt" "$out/paper.json" <<'PY'
 import json, sys

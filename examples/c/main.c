@@ -1,7 +1,7 @@
 /* A stand-in for cFE on the host: a scheduler that sends RL_APP a wakeup per cycle, an event
- * log, a CDS that survives a simulated processor reset (after wakeup RESET_AT, the app's
- * static data is overwritten and RL_App_Init runs again), and a joint controller that folds
- * the setpoints into the FNV-1a-64 trajectory digest.
+ * log, a CDS that survives a simulated processor reset (after wakeup RESET_AT the app's
+ * initialisation, RL_App_Init, runs again over its static data and finds the checkpoint),
+ * and a joint controller that folds the setpoints into the FNV-1a-64 trajectory digest.
  * Usage: rl_app_demo BLOCK   (a block from `host-sim block TASK --out BLOCK`) */
 #include <stdio.h>
 #include <string.h>

@@ -26,7 +26,7 @@ static uint8_t scratch[4096];
 static unsigned failures;
 static unsigned checks;
 
-static void put_u32(uint32_t v) {
+void rl_test_put_u32(uint32_t v) {
     char buf[11];
     int i = 10;
     buf[i] = '\0';
@@ -40,9 +40,9 @@ static void put_u32(uint32_t v) {
 static void put_i32(int32_t v) {
     if (v < 0) {
         rl_test_write("-");
-        put_u32((uint32_t)(-(v + 1)) + 1u);
+        rl_test_put_u32((uint32_t)(-(v + 1)) + 1u);
     } else {
-        put_u32((uint32_t)v);
+        rl_test_put_u32((uint32_t)v);
     }
 }
 
@@ -85,7 +85,7 @@ static void expect(const char *what, rl_status got, rl_status want) {
 static void line_u32(const char *key, uint32_t v) {
     rl_test_write(key);
     rl_test_write(" ");
-    put_u32(v);
+    rl_test_put_u32(v);
     rl_test_write("\n");
 }
 
@@ -270,7 +270,7 @@ int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other_block, si
     line_hex("F", bits_of(plan.f));
     for (i = 0; i < RL_ETA_LEN; i++) {
         rl_test_write("ETA ");
-        put_u32((uint32_t)i);
+        rl_test_put_u32((uint32_t)i);
         rl_test_write(" ");
         put_hex64(bits_of(plan.eta[i]));
         rl_test_write("\n");

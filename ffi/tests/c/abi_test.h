@@ -9,6 +9,9 @@
  * check passed. */
 int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other, size_t other_len);
 
+/* Writes `v` in decimal with rl_test_write. */
+void rl_test_put_u32(uint32_t v);
+
 /* Platform: writes a NUL-terminated string to the test's output. */
 void rl_test_write(const char *s);
 /* Platform: starts a stack measurement (0 where not measured). */

@@ -76,17 +76,6 @@ static size_t block_len(const uint8_t *b) {
     return n > 0x8000u ? 0x8000u : (size_t)n;
 }
 
-static void put_u32(uint32_t v) {
-    char buf[11];
-    int i = 10;
-    buf[i] = '\0';
-    do {
-        buf[--i] = (char)('0' + v % 10u);
-        v /= 10u;
-    } while (v != 0u && i > 0);
-    rl_test_write(&buf[i]);
-}
-
 void reset_handler(void) {
     uint32_t *src = &_data_load;
     uint32_t *dst = &_data_start;
@@ -108,9 +97,9 @@ int main(void) {
     code = rl_test_run(_task_block, block_len(_task_block), _other_block,
                        block_len(_other_block));
     rl_test_write("STACK max ");
-    put_u32(deepest_total);
+    rl_test_put_u32(deepest_total);
     rl_test_write("\nSTACK size ");
-    put_u32((uint32_t)((uintptr_t)&_stack_top - (uintptr_t)&_stack_limit));
+    rl_test_put_u32((uint32_t)((uintptr_t)&_stack_top - (uintptr_t)&_stack_limit));
     rl_test_write("\n");
     return code;
 }

@@ -5,7 +5,8 @@
 //! The binary is a thin CLI over this library; tests use the library directly.
 //!
 //! Data flows one way: `taskfile`/`urdf` (inputs) → `drive` (the planner) → `artifacts`,
-//! `records`, `plots`, `view` (outputs, through `output`'s atomic writes) → `cmd/*` (one leaf per
+//! `records`, `plots`, `view` (outputs, through `output`'s atomic writes), `flight` (the task
+//! block of the flight image and C clients) → `cmd/*` (one leaf per
 //! subcommand, which only these shared modules feed).
 // A host tool: an out-of-range index here is a bug that should stop the program loudly.
 #![allow(clippy::indexing_slicing)]
@@ -17,6 +18,7 @@ pub mod cmd;
 pub mod dispatch;
 pub mod drive;
 pub mod error;
+pub mod flight;
 pub mod output;
 pub mod plots;
 pub mod records;

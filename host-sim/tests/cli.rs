@@ -960,3 +960,42 @@ fn pose_tolerances_are_met_and_checked() {
     assert!(err.contains("[target] position_tolerance_m = -1"), "{err}");
     assert!(!out2.exists());
 }
+
+/// `block TASK --out FILE` writes exactly the bytes `target` gives QEMU, which decode to
+/// the task; a robot the flight image is not built for is refused with exit code 2 and
+/// nothing written.
+/// Verifies RL-FFI-009.
+#[test]
+fn block_writes_the_bytes_target_gives_qemu() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("paper.block");
+    host_sim()
+        .args([
+            "block",
+            paper().to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let written = std::fs::read(&out).unwrap();
+    let lt = host_sim::taskfile::load(&paper()).unwrap();
+    let expected =
+        host_sim::flight::task_block(&lt, &host_sim::taskfile::Overrides::default()).unwrap();
+    assert_eq!(written, expected);
+    let block = reactionless::block::decode::<7>(&written).unwrap();
+    assert_eq!(block.planner.frame_budget, 3000);
+
+    let six = root().join("tests/records/tasks/arm6/task_002.toml");
+    let bad = tmp.path().join("six.block");
+    host_sim()
+        .args([
+            "block",
+            six.to_str().unwrap(),
+            "--out",
+            bad.to_str().unwrap(),
+        ])
+        .assert()
+        .code(2);
+    assert!(!bad.exists());
+}

@@ -4,6 +4,7 @@
 //! subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
+pub mod block;
 pub mod campaign;
 pub mod check;
 pub mod completions;

@@ -19,20 +19,15 @@
 
 use crate::args::PlanArgs;
 use crate::error::{CliError, Context};
+pub use crate::flight::{FLIGHT_N, FLIGHT_P, task_block};
 use crate::records::{Outputs, PoseBits, bits, first_difference, outputs_of};
-use crate::taskfile::{self, LoadedTask, Overrides};
+use crate::taskfile;
 use object::{Object, ObjectSection, ObjectSymbol};
-use reactionless::Pose;
-use reactionless::block::{TaskBlock, block_len, encode};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-/// The flight robot's joint count (the image is built for it).
-pub const FLIGHT_N: usize = 7;
-/// Swarm capacity of the flight image.
-pub const FLIGHT_P: usize = 64;
 /// Where QEMU's loader puts the task block (`TASK` in memory.x).
 pub const TASK_ADDR: u32 = 0x203f_0000;
 /// Stack budget (bytes).
@@ -87,35 +82,6 @@ pub struct TargetJson {
 
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-/// The task block of a task file, for the flight robot.
-pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, CliError> {
-    if lt.chain.dof() != FLIGHT_N {
-        return Err(CliError::input(format!(
-            "{}: the flight image is built for {FLIGHT_N} joints; this robot has {}",
-            lt.path.display(),
-            lt.chain.dof()
-        )));
-    }
-    // Validate everything the image will validate, with the host's messages.
-    let task = lt.task::<7, 4>()?;
-    let planner = lt.planner(FLIGHT_P, overrides)?;
-    let block = TaskBlock::<7> {
-        robot: lt.chain.desc::<7>()?,
-        q0: *task.start(),
-        target: Pose {
-            position: lt.target()?.position,
-            quat_wxyz: lt.target()?.quat_wxyz,
-        },
-        tf_s: lt.file.motion.tf_s,
-        dt_s: lt.file.motion.dt_s,
-        n: lt.file.motion.n,
-        planner,
-    };
-    let mut buf = vec![0u8; block_len(7)];
-    encode(&block, &mut buf).or_internal(|| "task block")?;
-    Ok(buf)
 }
 
 fn build(root: &Path) -> Result<PathBuf, CliError> {

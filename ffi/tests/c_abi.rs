@@ -1,0 +1,141 @@
+//! The C ABI from C: `tests/c/abi_test.c` compiled with `gcc -std=c99 -Wall -Wextra
+//! -Wpedantic -Werror` against this crate's staticlib, run on the reference task's block,
+//! and compared with host-sim's record of the same task; the header compiled as C++11.
+//!
+//! Requirements: RL-FFI (docs/requirements.md).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    missing_docs
+)]
+
+use host_sim::taskfile::{self, Overrides};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The staticlib cargo built next to this test (`target/<profile>/libreactionless_ffi.a`).
+fn staticlib() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let profile_dir = exe.parent().unwrap().parent().unwrap();
+    let lib = profile_dir.join("libreactionless_ffi.a");
+    assert!(lib.exists(), "no staticlib at {}", lib.display());
+    lib
+}
+
+fn out_dir() -> PathBuf {
+    let d = staticlib().parent().unwrap().join("c-abi");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn block_of(task: &str, out: &Path) {
+    let lt = taskfile::load(&root().join(task)).unwrap();
+    let bytes = host_sim::flight::task_block(&lt, &Overrides::default()).unwrap();
+    std::fs::write(out, bytes).unwrap();
+}
+
+fn run(cmd: &mut Command) -> String {
+    let o = cmd.output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{cmd:?} failed:\n{text}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    text
+}
+
+/// Lines `KEY value` (and `ETA i value`) of the C program's output.
+fn parse(text: &str) -> BTreeMap<String, String> {
+    text.lines()
+        .filter_map(|l| l.rsplit_once(' '))
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+}
+
+/// The C program plans paper.toml's block through the C ABI at the task's frame budget,
+/// checkpoints and restores once in the middle, streams the setpoints, and gets the bits of
+/// host-sim's record: η, f, the counts and the trajectory digest. Every misuse check
+/// (NULL pointers, bad ABI version and size, corrupted blocks and checkpoints, another
+/// task's checkpoint, wrong states) returns its error.
+/// Verifies RL-FFI-001, RL-FFI-002, RL-FFI-003, RL-FFI-004, RL-FFI-005.
+#[test]
+fn c_program_matches_the_record_across_a_checkpoint() {
+    let dir = out_dir();
+    let (block, other) = (dir.join("paper.block"), dir.join("other.block"));
+    block_of("spec/tasks/paper.toml", &block);
+    block_of("tests/records/tasks/chaser7/task_002.toml", &other);
+    let c = root().join("ffi/tests/c");
+    let exe = dir.join("abi_test");
+    run(Command::new("gcc")
+        .args([
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Wpedantic",
+            "-Werror",
+        ])
+        .arg("-I")
+        .arg(root().join("ffi/include"))
+        .arg(c.join("abi_test.c"))
+        .arg(c.join("host_main.c"))
+        .arg(staticlib())
+        .args(["-lpthread", "-ldl", "-lm", "-o"])
+        .arg(&exe));
+    let text = run(Command::new(&exe).arg(&block).arg(&other));
+    println!("{text}");
+    let got = parse(&text);
+
+    let lt = taskfile::load(&root().join("spec/tasks/paper.toml")).unwrap();
+    let rec = host_sim::records::outputs_of::<7, 4>(&lt, &Overrides::default())
+        .unwrap()
+        .outputs;
+    let want = |k: &str, v: String| {
+        assert_eq!(got.get(k), Some(&v), "{k}: C output\n{text}");
+    };
+    want("RESULT", "ok".into());
+    want("FAILURES", "0".into());
+    want("STATUS", rec.status.clone());
+    want("ITERATIONS", rec.iterations.to_string());
+    want("ROLLOUTS", rec.rollouts.to_string());
+    want("STAGNATION", rec.stagnation_events.to_string());
+    want("RESTARTS", rec.restarts.to_string());
+    want("F", rec.f_bits.clone());
+    for (i, b) in rec.eta_bits.iter().enumerate() {
+        want(&format!("ETA {i}"), b.clone());
+    }
+    want("SAMPLES", rec.trajectory_samples.to_string());
+    want("DIGEST", rec.trajectory_digest.clone());
+    want("BUDGET", "3000".into());
+    // The restore happened in the middle of planning, not after it.
+    let frames: u32 = got["FRAMES"].parse().unwrap();
+    let at: u32 = got["RESTORED_AT_FRAME"].parse().unwrap();
+    assert!(at > 1 && at < frames, "restored at frame {at} of {frames}");
+    let checks: u32 = got["CHECKS"].parse().unwrap();
+    assert!(checks > 60, "{checks} checks");
+}
+
+/// The checked-in header compiles as C++11 with every warning an error, and links.
+/// Verifies RL-FFI-006.
+#[test]
+fn header_compiles_as_cpp11() {
+    let dir = out_dir();
+    let exe = dir.join("header_cpp");
+    run(Command::new("g++")
+        .args(["-std=c++11", "-Wall", "-Wextra", "-Wpedantic", "-Werror"])
+        .arg("-I")
+        .arg(root().join("ffi/include"))
+        .arg(root().join("ffi/tests/c/header_cpp.cpp"))
+        .arg(staticlib())
+        .args(["-lpthread", "-ldl", "-lm", "-o"])
+        .arg(&exe));
+    run(&mut Command::new(&exe));
+}

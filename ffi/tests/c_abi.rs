@@ -20,10 +20,20 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The staticlib cargo built next to this test (`target/<profile>/libreactionless_ffi.a`).
+/// The staticlib next to this test (`target/<profile>/libreactionless_ffi.a`). `cargo test`
+/// builds only the rlib for the tests, so this asks cargo for the staticlib of the same
+/// profile first (a no-op when it is up to date; the build lock is free while tests run).
 fn staticlib() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let profile_dir = exe.parent().unwrap().parent().unwrap();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut build = Command::new(cargo);
+    build.args(["build", "-q", "-p", "reactionless-ffi"]);
+    if profile_dir.file_name().is_some_and(|n| n == "release") {
+        build.arg("--release");
+    }
+    let status = build.current_dir(root()).status().unwrap();
+    assert!(status.success(), "cargo build -p reactionless-ffi failed");
     let lib = profile_dir.join("libreactionless_ffi.a");
     assert!(lib.exists(), "no staticlib at {}", lib.display());
     lib

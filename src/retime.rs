@@ -9,25 +9,29 @@
 //! **Path.** The rollout's samples `q_0 … q_S` are joined by straight segments (the Euler
 //! step `q_{s+1} = q_s + dt q̇_s` is exactly that path) and parameterised by joint-space arc
 //! length `s ∈ [0, L]`, never by `t`: the rate vanishes at both rest ends, the arc-length
-//! tangent does not. `M` grid points `s_i = i·Δ`, `Δ = L/(M−1)`, hold `q(s_i)`; `q'` and
-//! `q''` at a grid point are second-order finite differences of the neighbouring points
-//! (one-sided at the ends). Feeding the samples needs two passes (the first, [`ArcLength`],
-//! measures `L`); a rollout is deterministic, so the planner re-runs it from `(q₀, η)`.
+//! tangent does not. `M` grid points `s_i = i·Δ`, `Δ = L/(M−1)`, hold `q(s_i)`; `q'` at a
+//! grid point is a second-order finite difference of the neighbouring points (one-sided at
+//! the ends) and `q''` is constant over each segment, `(q'_{i+1} − q'_i)/Δ`. Feeding the
+//! samples needs two passes (the first, [`ArcLength`], measures `L`); a rollout is
+//! deterministic, so the planner re-runs it from `(q₀, η)`.
 //!
 //! **Solve** (TOPP-RA, Pham & Pham 2018, on `x = ṡ²`, `u = s̈`, `x_{i+1} = x_i + 2Δu_i`).
-//! Constraints at grid point `i`: `x ≤ (q̇max_j/|q'_j|)²` and
-//! `|q'_j u + q''_j x| ≤ q̈max_j`. A backward pass computes the upper end of each
-//! controllable set `K_i = [0, x̄_i]` (`x̄_{M−1} = 0`, rest at the end) by eliminating `u`
-//! in closed form (Fourier–Motzkin over the `N` lower and `N` upper bounds of `u`, O(N²)
-//! per point, exact for this 2-D LP); a greedy forward pass from `x_0 = 0` takes the
-//! largest admissible `u_i` that keeps `x_{i+1} ∈ K_{i+1}`. Work O(M·N²), no iteration.
-//! Each segment then has a constant `s̈`, and lasts `2Δ/(√x_i + √x_{i+1})`.
+//! Segment `i` (constant `u_i`) is constrained at both of its ends:
+//! `|q'_j u + q''_j ṡ²| ≤ q̈max_j` at `s_i` and at `s_{i+1}`, and `x_i ≤ (q̇max_j/|q'_j|)²`
+//! with the largest `|q'_j|` of the point and its neighbours. Within a segment `q'` and `ṡ²`
+//! are linear in `s`, so both `q̇_j²` and `q̈_j` stay within their end values: the limits
+//! hold at every setpoint, not only at grid points. A backward pass computes the upper end
+//! of each controllable set `K_i = [0, x̄_i]` (`x̄_{M−1} = 0`, rest at the end) by
+//! eliminating `u` in closed form (Fourier–Motzkin over the `2N` lower and `2N` upper
+//! bounds of `u`, O(N²) per point, exact for this 2-D LP); a greedy forward pass from
+//! `x_0 = 0` takes the largest admissible `u_i` that keeps `x_{i+1} ∈ K_{i+1}`. Work
+//! O(M·N²), no iteration. Each segment lasts `2Δ/(√x_i + √x_{i+1})`.
 //!
 //! **Stream.** The optimal duration `T*` is rounded up to a whole step, `T = K·dt`, by a
 //! uniform time scale `r = T*/T ≤ 1` (rates scale by `r`, accelerations by `r²`, so no
 //! limit can be exceeded by the rounding). Sample `k` lies at `τ = k·dt·r` of the optimal
-//! profile; within its segment `ṡ = √x_i + u τ`, `q` and `q'`, `q''` are interpolated
-//! linearly in `s`, `q̇ = q' ṡ r`, `q̈ = (q' u + q'' ṡ²) r²`. The first sample is `q_0`, the
+//! profile; within its segment `ṡ = √x_i + u τ`, `q` and `q'` are interpolated linearly in
+//! `s`, `q̇ = q' ṡ r`, `q̈ = (q' u + q'' ṡ²) r²`. The first sample is `q_0`, the
 //! last is exactly the last path sample, both with `q̇ = 0`. The stream carries O(1) state
 //! (the segment index and its start time) and walks the grid once.
 //!
@@ -365,14 +369,9 @@ pub fn path_of_rollout<const N: usize, const K: usize>(
     b.finish()
 }
 
-/// `q'` and `q''` at grid point `i` (finite differences; one-sided at the ends).
-fn derivatives<const N: usize>(
-    grid: &[GridPoint<N>],
-    path: &Path,
-    i: u32,
-) -> ([f64; N], [f64; N]) {
+/// `q'` at grid point `i`: second-order finite differences (one-sided at the ends).
+fn derivatives<const N: usize>(grid: &[GridPoint<N>], path: &Path, i: u32) -> [f64; N] {
     let mut d1 = [0.0; N];
-    let mut d2 = [0.0; N];
     let m = path.m;
     let (lo, kind) = if i == 0 {
         (0, 0u8)
@@ -381,100 +380,128 @@ fn derivatives<const N: usize>(
     } else {
         (i - 1, 1)
     };
-    let h = path.ds;
+    let h2 = 2.0 * path.ds;
     if let Some([a, b, c]) = grid.get(lo as usize..lo as usize + 3) {
-        for j in 0..N {
-            let (qa, qb, qc) = (
-                a.q.get(j).copied().unwrap_or(0.0),
-                b.q.get(j).copied().unwrap_or(0.0),
-                c.q.get(j).copied().unwrap_or(0.0),
-            );
-            let first = match kind {
-                0 => (-3.0 * qa + 4.0 * qb - qc) / (2.0 * h),
-                1 => (qc - qa) / (2.0 * h),
-                _ => (qa - 4.0 * qb + 3.0 * qc) / (2.0 * h),
+        for (j, o) in d1.iter_mut().enumerate() {
+            let (Some(&qa), Some(&qb), Some(&qc)) = (a.q.get(j), b.q.get(j), c.q.get(j)) else {
+                continue;
             };
-            let second = (qa - 2.0 * qb + qc) / (h * h);
-            if let (Some(o1), Some(o2)) = (d1.get_mut(j), d2.get_mut(j)) {
-                *o1 = first;
-                *o2 = second;
-            }
+            *o = match kind {
+                0 => (-3.0 * qa + 4.0 * qb - qc) / h2,
+                1 => (qc - qa) / h2,
+                _ => (qa - 4.0 * qb + 3.0 * qc) / h2,
+            };
         }
     }
-    (d1, d2)
+    d1
 }
 
-/// The largest `x` at grid point `i` from which some admissible `u` reaches `[0, x_next]`
-/// (`x_next = None`: no reachability constraint, only the point's own constraints).
-fn controllable_max<const N: usize>(
-    d1: &[f64; N],
-    d2: &[f64; N],
+/// `q''` of segment `i → i+1`, constant over it: `(q'_{i+1} − q'_i)/Δ`, so that `q'` is
+/// linear in `s` within the segment and consistent with it.
+fn curvature<const N: usize>(at: &[f64; N], next: &[f64; N], ds: f64) -> [f64; N] {
+    let mut w = [0.0; N];
+    for ((o, a), b) in w.iter_mut().zip(at).zip(next) {
+        *o = (b - a) / ds;
+    }
+    w
+}
+
+/// One acceleration constraint of a segment, `|P u + W x| ≤ A` in `(u, x) = (s̈_i, ṡ_i²)`.
+#[derive(Debug, Clone, Copy)]
+struct Row {
+    p: f64,
+    w: f64,
+    a: f64,
+}
+
+/// The `2N` rows of segment `i → i+1` with `q''` constant over it (`W = q''_j`): joint `j`
+/// at `s_i` (`P = q'_j(s_i)`) and at `s_{i+1}` with the same `u` (`x_{i+1} = x + 2Δu`:
+/// `P = q'_j(s_{i+1}) + 2Δ q''_j`). Within the segment `q̈_j = q'_j(s) u + q''_j ṡ²(s)` is
+/// linear in `s` (both `q'` and `ṡ² = x + 2u(s − s_i)` are), so bounding it at both ends
+/// bounds it at every setpoint inside.
+fn rows<const N: usize>(
+    at: &[f64; N],
+    next: &[f64; N],
     limits: &Limits<N>,
     ds: f64,
-    x_next: Option<f64>,
+) -> ([Row; N], [Row; N]) {
+    let zero = Row {
+        p: 0.0,
+        w: 0.0,
+        a: 1.0,
+    };
+    let w = curvature(at, next, ds);
+    let mut ra = [zero; N];
+    let mut rb = [zero; N];
+    for (j, (oa, ob)) in ra.iter_mut().zip(rb.iter_mut()).enumerate() {
+        let a = limits.qdd_max.get(j).copied().unwrap_or(1.0);
+        if let (Some(&p), Some(&pn), Some(&w)) = (at.get(j), next.get(j), w.get(j)) {
+            *oa = Row { p, w, a };
+            *ob = Row {
+                p: pn + 2.0 * ds * w,
+                w,
+                a,
+            };
+        }
+    }
+    (ra, rb)
+}
+
+/// The largest `x` at grid point `i` from which some `u` satisfying the segment's rows
+/// reaches `[0, x_next]`: `u` eliminated in closed form (every lower bound of `u` below
+/// every upper bound), each pair a bound `c·x ≤ d` with `d ≥ 0`, so `x = 0` is always in.
+fn controllable_max<const N: usize>(
+    tangent: &[f64; N],
+    rows: &([Row; N], [Row; N]),
+    qd_max: &[f64; N],
+    ds: f64,
+    x_next: f64,
 ) -> f64 {
     let mut ub = f64::INFINITY;
     let mut bound = |c: f64, d: f64| {
-        // c·x ≤ d with d ≥ 0: binds only for c > 0.
         if c > 0.0 {
             ub = ub.min(d / c);
         }
     };
-    let inv2 = 1.0 / (2.0 * ds);
-    for j in 0..N {
-        let (Some(&p), Some(&w), Some(&v), Some(&a)) = (
-            d1.get(j),
-            d2.get(j),
-            limits.qd_max.get(j),
-            limits.qdd_max.get(j),
-        ) else {
-            continue;
-        };
-        let ap = libm::fabs(p);
+    for (ap, v) in tangent.iter().zip(qd_max) {
+        let ap = *ap;
         if ap > TANGENT_FLOOR {
             let r = v / ap;
             bound(1.0, r * r);
-        } else {
-            bound(libm::fabs(w), a);
+        }
+    }
+    let inv2 = 1.0 / (2.0 * ds);
+    for rj in rows.0.iter().chain(&rows.1) {
+        let apj = libm::fabs(rj.p);
+        if apj <= TANGENT_FLOOR {
+            // No bound on u, only |W| x ≤ A.
+            bound(libm::fabs(rj.w), rj.a);
             continue;
         }
-        // u ∈ [−a/|p| − (w/p)x, a/|p| − (w/p)x].
-        let (l0, slope) = (a / ap, w / p);
-        for k in 0..N {
-            let (Some(&pk), Some(&wk), Some(&ak)) = (d1.get(k), d2.get(k), limits.qdd_max.get(k))
-            else {
-                continue;
-            };
-            let apk = libm::fabs(pk);
-            if k == j || apk <= TANGENT_FLOOR {
+        // u ∈ [−A/|P| − (W/P)x, A/|P| − (W/P)x].
+        let (lj, sj) = (rj.a / apj, rj.w / rj.p);
+        for rk in rows.0.iter().chain(&rows.1) {
+            let apk = libm::fabs(rk.p);
+            if apk <= TANGENT_FLOOR {
                 continue;
             }
             // L_j ≤ U_k.
-            bound(wk / pk - slope, ak / apk + l0);
+            bound(rk.w / rk.p - sj, rk.a / apk + lj);
         }
-        if let Some(hi) = x_next {
-            // L_j ≤ (x_next − x)/(2Δ) and −x/(2Δ) ≤ U_j.
-            bound(inv2 - slope, hi * inv2 + l0);
-            bound(slope - inv2, l0);
-        }
+        // L_j ≤ (x_next − x)/(2Δ) and −x/(2Δ) ≤ U_j.
+        bound(inv2 - sj, x_next * inv2 + lj);
+        bound(sj - inv2, lj);
     }
     ub
 }
 
-/// The largest admissible `u` at `(i, x)` that keeps `x + 2Δu ≤ x_next`.
-fn greedy_u<const N: usize>(
-    d1: &[f64; N],
-    d2: &[f64; N],
-    limits: &Limits<N>,
-    ds: f64,
-    x: f64,
-    x_next: f64,
-) -> f64 {
+/// The largest `u` the segment's rows admit at `x` that keeps `x + 2Δu ≤ x_next`.
+fn greedy_u<const N: usize>(rows: &([Row; N], [Row; N]), ds: f64, x: f64, x_next: f64) -> f64 {
     let mut u = (x_next - x) / (2.0 * ds);
-    for ((p, w), a) in d1.iter().zip(d2).zip(&limits.qdd_max) {
-        let ap = libm::fabs(*p);
+    for r in rows.0.iter().chain(&rows.1) {
+        let ap = libm::fabs(r.p);
         if ap > TANGENT_FLOOR {
-            u = u.min(a / ap - (w / p) * x);
+            u = u.min(r.a / ap - (r.w / r.p) * x);
         }
     }
     u
@@ -530,9 +557,25 @@ pub fn solve<const N: usize>(
     if let Some(g) = grid.get_mut((m - 1) as usize) {
         g.x = 0.0;
     }
+    let mut next = derivatives(grid, path, m - 1);
+    let mut at = derivatives(grid, path, m - 2);
     for i in (0..m - 1).rev() {
-        let (d1, d2) = derivatives(grid, path, i);
-        hi = controllable_max(&d1, &d2, limits, ds, Some(hi));
+        let prev = if i == 0 {
+            at
+        } else {
+            derivatives(grid, path, i - 1)
+        };
+        let r = rows(&at, &next, limits, ds);
+        // The rate bound at s_i uses the largest |q'_j| of the point and its neighbours:
+        // then both ends of each segment satisfy it for the segment's largest tangent, and
+        // since q' and ṡ² are linear in s within a segment, so does every setpoint.
+        let mut tangent = [0.0; N];
+        for (((t, a), b), c) in tangent.iter_mut().zip(&prev).zip(&at).zip(&next) {
+            *t = libm::fabs(*a).max(libm::fabs(*b)).max(libm::fabs(*c));
+        }
+        hi = controllable_max(&tangent, &r, &limits.qd_max, ds, hi);
+        next = at;
+        at = prev;
         if !(hi > 0.0 && hi.is_finite()) && i > 0 {
             return Err(Error::RetimeStalled { point: i });
         }
@@ -546,10 +589,13 @@ pub fn solve<const N: usize>(
     if let Some(g) = grid.first_mut() {
         g.x = 0.0;
     }
+    let mut at = derivatives(grid, path, 0);
     for i in 0..m - 1 {
-        let (d1, d2) = derivatives(grid, path, i);
+        let following = derivatives(grid, path, i + 1);
+        let r = rows(&at, &following, limits, ds);
+        at = following;
         let x_next_max = grid.get((i + 1) as usize).map_or(0.0, |g| g.x);
-        let u = greedy_u(&d1, &d2, limits, ds, x, x_next_max);
+        let u = greedy_u(&r, ds, x, x_next_max);
         let next = (x + 2.0 * ds * u).clamp(0.0, x_next_max);
         let next = if i + 1 == m - 1 { 0.0 } else { next };
         if !(next > 0.0) && i + 1 < m - 1 {
@@ -687,8 +733,9 @@ impl Stream {
             let s = (sa * local + 0.5 * u * local * local).clamp(0.0, ds);
             (s / ds, (sa + u * local).max(0.0))
         };
-        let (a1, a2) = derivatives(grid, &path, i);
-        let (b1, b2) = derivatives(grid, &path, i + 1);
+        let a1 = derivatives(grid, &path, i);
+        let b1 = derivatives(grid, &path, i + 1);
+        let w = curvature(&a1, &b1, ds);
         let (ga, gb) = (grid.get(i as usize)?, grid.get((i + 1) as usize)?);
         let r = self.scale;
         let mut sp = Setpoint {
@@ -703,7 +750,8 @@ impl Stream {
                 let (a, b) = (a.get(j).copied().unwrap_or(0.0), b.get(j).copied().unwrap_or(0.0));
                 (1.0 - sigma) * a + sigma * b
             };
-            let (q, p, w) = (lerp(&ga.q, &gb.q), lerp(&a1, &b1), lerp(&a2, &b2));
+            let (q, p) = (lerp(&ga.q, &gb.q), lerp(&a1, &b1));
+            let w = w.get(j).copied().unwrap_or(0.0);
             if let (Some(oq), Some(od), Some(oa)) =
                 (sp.q.get_mut(j), sp.qd.get_mut(j), sp.qdd.get_mut(j))
             {

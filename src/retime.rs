@@ -457,42 +457,87 @@ fn controllable_max<const N: usize>(
     ds: f64,
     x_next: f64,
 ) -> f64 {
-    let mut ub = f64::INFINITY;
+    // The smallest d/c over bounds with c > 0, kept as a fraction (d, c) and compared by
+    // cross-multiplication: one division per point instead of one per pair. (1, 0) is +∞.
+    let (mut bd, mut bc) = (1.0f64, 0.0f64);
     let mut bound = |c: f64, d: f64| {
-        if c > 0.0 {
-            ub = ub.min(d / c);
+        if c > 0.0 && d * bc < bd * c {
+            (bd, bc) = (d, c);
         }
     };
     for (ap, v) in tangent.iter().zip(qd_max) {
-        let ap = *ap;
-        if ap > TANGENT_FLOOR {
+        if *ap > TANGENT_FLOOR {
             let r = v / ap;
             bound(1.0, r * r);
         }
     }
-    let inv2 = 1.0 / (2.0 * ds);
-    for rj in rows.0.iter().chain(&rows.1) {
-        let apj = libm::fabs(rj.p);
-        if apj <= TANGENT_FLOOR {
-            // No bound on u, only |W| x ≤ A.
-            bound(libm::fabs(rj.w), rj.a);
-            continue;
-        }
-        // u ∈ [−A/|P| − (W/P)x, A/|P| − (W/P)x].
-        let (lj, sj) = (rj.a / apj, rj.w / rj.p);
-        for rk in rows.0.iter().chain(&rows.1) {
-            let apk = libm::fabs(rk.p);
-            if apk <= TANGENT_FLOOR {
-                continue;
+    // Per row: u ∈ [−l − σx, l − σx] with l = A/|P|, σ = W/P; rows with a vanishing P bound
+    // only x (|W| x ≤ A).
+    let mut l = [[0.0f64; 2]; N];
+    let mut sl = [[0.0f64; 2]; N];
+    let mut live = [[false; 2]; N];
+    for (j, (ra, rb)) in rows.0.iter().zip(&rows.1).enumerate() {
+        for (side, r) in [ra, rb].into_iter().enumerate() {
+            let ap = libm::fabs(r.p);
+            if ap <= TANGENT_FLOOR {
+                bound(libm::fabs(r.w), r.a);
+            } else if let (Some(lo), Some(so), Some(fo)) = (
+                l.get_mut(j).and_then(|x| x.get_mut(side)),
+                sl.get_mut(j).and_then(|x| x.get_mut(side)),
+                live.get_mut(j).and_then(|x| x.get_mut(side)),
+            ) {
+                *lo = r.a / ap;
+                *so = r.w / r.p;
+                *fo = true;
             }
-            // L_j ≤ U_k.
-            bound(rk.w / rk.p - sj, rk.a / apk + lj);
         }
+    }
+    let inv2 = 1.0 / (2.0 * ds);
+    let rows_of = || {
+        l.as_flattened()
+            .iter()
+            .zip(sl.as_flattened())
+            .zip(live.as_flattened())
+            .filter_map(|((l, s), f)| f.then_some((*l, *s)))
+    };
+    for (lj, sj) in rows_of() {
         // L_j ≤ (x_next − x)/(2Δ) and −x/(2Δ) ≤ U_j.
         bound(inv2 - sj, x_next * inv2 + lj);
         bound(sj - inv2, lj);
     }
-    ub
+    let mut x = if bc > 0.0 { bd / bc } else { f64::INFINITY };
+    if !x.is_finite() {
+        x = f64::MAX;
+    }
+    // Every lower bound of u below every upper bound: φ(x) = min_k U_k − max_j L_j ≥ 0,
+    // φ(x) = min_k (l_k − σ_k x) + min_j (l_j + σ_j x), concave with φ(0) > 0. If φ < 0 at
+    // the other bounds' x, Newton steps on the active pair's line walk down to the root
+    // from above (each line lies above the concave φ) and stop on the final piece; at most
+    // one step per pair.
+    for _ in 0..(4 * N * N + 1) {
+        let (mut a, mut ka) = (f64::INFINITY, (0.0, 0.0));
+        let (mut b, mut kb) = (f64::INFINITY, (0.0, 0.0));
+        for (lr, sr) in rows_of() {
+            let up = lr - sr * x;
+            if up < a {
+                (a, ka) = (up, (lr, sr));
+            }
+            let lo = lr + sr * x;
+            if lo < b {
+                (b, kb) = (lo, (lr, sr));
+            }
+        }
+        if a + b >= 0.0 || !(a + b).is_finite() {
+            break;
+        }
+        let slope = ka.1 - kb.1;
+        let root = if slope > 0.0 { (ka.0 + kb.0) / slope } else { 0.0 };
+        if !(root < x) {
+            break;
+        }
+        x = root.max(0.0);
+    }
+    x
 }
 
 /// The largest `u` the segment's rows admit at `x` that keeps `x + 2Δu ≤ x_next`.

@@ -677,6 +677,17 @@ pub struct Setpoint<const N: usize> {
     pub qdd: [f64; N],
 }
 
+impl<const N: usize> Setpoint<N> {
+    /// Folds this setpoint into `d`: `t`, then `q`, `q̇`, `q̈` (the digest host and target
+    /// compare).
+    pub fn digest(&self, d: &mut crate::digest::TrajectoryDigest) {
+        d.push(self.t);
+        for v in self.q.iter().chain(&self.qd).chain(&self.qdd) {
+            d.push(*v);
+        }
+    }
+}
+
 /// The setpoints of a [`Profile`] every `dt`, from `0` to `K·dt ≥ T*`: O(1) state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stream {

@@ -20,6 +20,7 @@ pub mod error;
 pub mod output;
 pub mod plots;
 pub mod records;
+pub mod retiming;
 pub mod stats;
 pub mod taskfile;
 pub mod urdf;

@@ -1,6 +1,6 @@
 //! One leaf per subcommand. Each file owns its `clap::Args` struct (flags and help) and
 //! `Args::run`; leaves import only the shared modules (`args`, `artifacts`, `drive`,
-//! `records`, `stats`, `output`, `taskfile`, `urdf`, `plots`), never each other. A new
+//! `records`, `retiming`, `stats`, `output`, `taskfile`, `urdf`, `plots`), never each other. A new
 //! subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
@@ -14,5 +14,6 @@ pub mod model;
 pub mod plan;
 pub mod record;
 pub mod replay;
+pub mod retime;
 pub mod rollout;
 pub mod target;

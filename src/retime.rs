@@ -585,8 +585,6 @@ fn segment_time(ds: f64, xa: f64, xb: f64) -> f64 {
 /// [`Error::PathMismatch`] if `grid` is shorter than the path's grid;
 /// [`Error::RetimeStalled`] if the speed would vanish at an interior grid point (a path
 /// that cannot be traversed in finite time, e.g. a corner).
-///
-/// Verifies RL-RETIME-001.
 pub fn solve<const N: usize>(
     grid: &mut [GridPoint<N>],
     path: &Path,
@@ -751,8 +749,6 @@ impl Stream {
 
     /// The next setpoint, or `None` after the last. `grid` is the solved grid of the
     /// profile (unchanged since [`solve`]); a shorter grid ends the stream.
-    ///
-    /// Verifies RL-RETIME-002.
     pub fn next<const N: usize>(&mut self, grid: &[GridPoint<N>]) -> Option<Setpoint<N>> {
         let path = self.profile.path;
         let m = path.m;
@@ -836,6 +832,7 @@ mod tests {
 
     /// A straight line under an acceleration limit only is bang-bang:
     /// `T = 2√(L/a)` with `a` the path acceleration the binding joint allows.
+    /// Verifies RL-RETIME-001.
     #[test]
     fn straight_line_is_bang_bang() {
         let mut grid = [GridPoint::<2>::ZERO; 2001];
@@ -847,6 +844,7 @@ mod tests {
         assert!((p.duration() - exact).abs() < 2e-3 * exact, "{}", p.duration());
     }
 
+    /// Verifies RL-RETIME-005.
     #[test]
     fn bad_inputs_are_typed_errors() {
         let mut grid = [GridPoint::<2>::ZERO; 4];

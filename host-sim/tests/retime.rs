@@ -99,7 +99,7 @@ fn retime_without_acceleration_limits_is_bad_input() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--accel-deg-s2") && err.contains("qdd_max_deg_s2"), "{err}");
     assert!(!out.exists());
-    let (code, _, err) = host_sim(args!("retime", &ro, "--out", &out, "--accel-deg-s2", "-1"));
+    let (code, _, err) = host_sim(args!("retime", &ro, "--out", &out, "--accel-deg-s2=-1"));
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--accel-deg-s2 = -1"), "{err}");
 }

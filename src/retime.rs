@@ -98,7 +98,12 @@ impl<const N: usize> Limits<N> {
             return Err(Error::MarginAboveOne);
         }
         let mut out = Self { qd_max, qdd_max };
-        for (j, (v, a)) in out.qd_max.iter_mut().zip(out.qdd_max.iter_mut()).enumerate() {
+        for (j, (v, a)) in out
+            .qd_max
+            .iter_mut()
+            .zip(out.qdd_max.iter_mut())
+            .enumerate()
+        {
             let joint = (j + 1) as u8;
             check_positive(*v, Param::VelocityLimit(joint))?;
             check_positive(*a, Param::AccelLimit(joint))?;
@@ -531,7 +536,11 @@ fn controllable_max<const N: usize>(
             break;
         }
         let slope = ka.1 - kb.1;
-        let root = if slope > 0.0 { (ka.0 + kb.0) / slope } else { 0.0 };
+        let root = if slope > 0.0 {
+            (ka.0 + kb.0) / slope
+        } else {
+            0.0
+        };
         if !(root < x) {
             break;
         }
@@ -799,7 +808,10 @@ impl Stream {
         };
         for j in 0..N {
             let lerp = |a: &[f64; N], b: &[f64; N]| {
-                let (a, b) = (a.get(j).copied().unwrap_or(0.0), b.get(j).copied().unwrap_or(0.0));
+                let (a, b) = (
+                    a.get(j).copied().unwrap_or(0.0),
+                    b.get(j).copied().unwrap_or(0.0),
+                );
                 (1.0 - sigma) * a + sigma * b
             };
             let (q, p) = (lerp(&ga.q, &gb.q), lerp(&a1, &b1));
@@ -807,7 +819,11 @@ impl Stream {
             if let (Some(oq), Some(od), Some(oa)) =
                 (sp.q.get_mut(j), sp.qd.get_mut(j), sp.qdd.get_mut(j))
             {
-                *oq = if last { gb.q.get(j).copied().unwrap_or(q) } else { q };
+                *oq = if last {
+                    gb.q.get(j).copied().unwrap_or(q)
+                } else {
+                    q
+                };
                 *od = p * sdot * r;
                 *oa = (p * u + w * sdot * sdot) * (r * r);
             }
@@ -841,7 +857,11 @@ mod tests {
         let p = solve(&mut grid, &path, &limits).unwrap();
         // Joint 2 binds: its tangent component is 0.8, so s̈ ≤ 1/0.8.
         let exact = 2.0 * libm::sqrt(1.0 / 1.25);
-        assert!((p.duration() - exact).abs() < 2e-3 * exact, "{}", p.duration());
+        assert!(
+            (p.duration() - exact).abs() < 2e-3 * exact,
+            "{}",
+            p.duration()
+        );
     }
 
     /// Verifies RL-RETIME-005.
@@ -856,8 +876,14 @@ mod tests {
                 capacity: 4
             })
         );
-        assert_eq!(PathBuilder::new(&mut grid, 2, 1.0).err(), Some(Error::GridTooSmall));
-        assert_eq!(PathBuilder::new(&mut grid, 4, 0.0).err(), Some(Error::PathTooShort));
+        assert_eq!(
+            PathBuilder::new(&mut grid, 2, 1.0).err(),
+            Some(Error::GridTooSmall)
+        );
+        assert_eq!(
+            PathBuilder::new(&mut grid, 4, 0.0).err(),
+            Some(Error::PathTooShort)
+        );
         assert_eq!(
             Limits::new([1.0, f64::NAN], [1.0; 2], 1.0).err(),
             Some(Error::NotFinite(Param::VelocityLimit(2)))
@@ -866,7 +892,10 @@ mod tests {
             Limits::new([1.0; 2], [1.0, -1.0], 1.0).err(),
             Some(Error::NotPositive(Param::AccelLimit(2)))
         );
-        assert_eq!(Limits::new([1.0; 2], [1.0; 2], 1.5).err(), Some(Error::MarginAboveOne));
+        assert_eq!(
+            Limits::new([1.0; 2], [1.0; 2], 1.5).err(),
+            Some(Error::MarginAboveOne)
+        );
         // A path that stops and moves on.
         let samples = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
         let mut b = PathBuilder::new(&mut grid, 4, 2.0).unwrap();

@@ -81,7 +81,11 @@ fn reference_plan_retimed_keeps_limits_pose_and_base() {
         assert!(w.duration >= w.optimal && w.duration < w.optimal + 0.01 + 1e-9);
         assert_eq!(w.rows, (w.duration / 0.01).round() as u32 + 1);
         assert!(w.max_qd_ratio <= TOL, "rate ratio {}", w.max_qd_ratio);
-        assert!(w.max_qdd_ratio <= TOL, "acceleration ratio {}", w.max_qdd_ratio);
+        assert!(
+            w.max_qdd_ratio <= TOL,
+            "acceleration ratio {}",
+            w.max_qdd_ratio
+        );
         assert!(w.max_qdd_ratio > 0.99, "an acceleration limit binds");
         assert_eq!(w.first_qd, 0.0);
         assert_eq!(w.last_qd, 0.0);

@@ -83,19 +83,22 @@ pub fn compute<const N: usize, const K: usize>(
     margin: f64,
 ) -> Result<Retimed<N>, CliError> {
     let qd = task.robot().desc().joints.map(|j| j.velocity);
-    let limits = Limits::new(qd, qdd_max_deg.map(f64::to_radians), margin).map_err(|e| match e.param() {
-        Some(reactionless::Param::RetimeMargin) | None => {
-            CliError::input(format!("[retime] margin = {margin}: {e}"))
-        }
-        Some(_) => CliError::input(format!("limits: {e}")),
-    })?;
+    let limits =
+        Limits::new(qd, qdd_max_deg.map(f64::to_radians), margin).map_err(|e| match e.param() {
+            Some(reactionless::Param::RetimeMargin) | None => {
+                CliError::input(format!("[retime] margin = {margin}: {e}"))
+            }
+            Some(_) => CliError::input(format!("limits: {e}")),
+        })?;
     let q_final = task
         .rollout(eta, &mut ())
         .or_failed(|| "rollout of eta failed")?
         .q_final;
     let mut storage = vec![GridPoint::<N>::ZERO; grid as usize];
     let path = retime::path_of_rollout(task, eta, &mut storage, grid).map_err(|e| {
-        CliError::input(format!("[retime] grid = {grid}: cannot build the path: {e}"))
+        CliError::input(format!(
+            "[retime] grid = {grid}: cannot build the path: {e}"
+        ))
     })?;
     let profile = retime::solve(&mut storage, &path, &limits).or_failed(|| "re-timing failed")?;
     let mut stream =
@@ -245,12 +248,7 @@ fn write_bundle<const N: usize>(
     let mut limits = toml::Table::new();
     limits.insert(
         "qdd_max_deg_s2".into(),
-        toml::Value::Array(
-            qdd_max_deg
-                .iter()
-                .map(|v| toml::Value::Float(*v))
-                .collect(),
-        ),
+        toml::Value::Array(qdd_max_deg.iter().map(|v| toml::Value::Float(*v)).collect()),
     );
     table.insert("limits".into(), toml::Value::Table(limits));
     let mut rt = toml::Table::new();

@@ -13,7 +13,11 @@ fn root() -> PathBuf {
 }
 
 fn host_sim(args: &[&std::ffi::OsStr]) -> (Option<i32>, String, String) {
-    let o = Command::cargo_bin("host-sim").unwrap().args(args).output().unwrap();
+    let o = Command::cargo_bin("host-sim")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
     (
         o.status.code(),
         String::from_utf8_lossy(&o.stdout).into_owned(),
@@ -46,19 +50,42 @@ fn retime_writes_a_bundle_that_check_verifies() {
     let (code, table, err) = host_sim(args!("check", &plan.join("retimed")));
     assert_eq!(code, Some(0), "{table}{err}");
     let out = tmp.path().join("rt");
-    let (code, _, err) = host_sim(args!("retime", &plan, "--out", &out, "--accel-deg-s2", "5", "--plots"));
+    let (code, _, err) = host_sim(args!(
+        "retime",
+        &plan,
+        "--out",
+        &out,
+        "--accel-deg-s2",
+        "5",
+        "--plots"
+    ));
     assert_eq!(code, Some(0), "{err}");
     assert!(out.join("retimed_accelerations.png").exists());
     let (code, table, err) = host_sim(args!("check", &out));
     assert_eq!(code, Some(0), "{table}{err}");
-    for c in ["joint rates", "joint accelerations", "end q", "base disturbance", "bit for bit"] {
+    for c in [
+        "joint rates",
+        "joint accelerations",
+        "end q",
+        "base disturbance",
+        "bit for bit",
+    ] {
         assert!(table.contains(c), "{c}: {table}");
     }
-    let s: Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let (d, orig) = (s["duration_s"].as_f64().unwrap(), s["original_duration_s"].as_f64().unwrap());
+    let s: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let (d, orig) = (
+        s["duration_s"].as_f64().unwrap(),
+        s["original_duration_s"].as_f64().unwrap(),
+    );
     assert!(d < orig, "{d} vs {orig}");
     assert!(s["base_disturbance_deg"].as_f64().unwrap() < 0.01);
-    for (m, l) in s["max_abs_qddot"].as_array().unwrap().iter().zip(s["qdd_max"].as_array().unwrap()) {
+    for (m, l) in s["max_abs_qddot"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(s["qdd_max"].as_array().unwrap())
+    {
         assert!(m.as_f64().unwrap() <= 1.005 * l.as_f64().unwrap());
     }
     // Same bits as plan --retime (same path, limits, grid).
@@ -97,7 +124,10 @@ fn retime_without_acceleration_limits_is_bad_input() {
     let out = tmp.path().join("rt");
     let (code, _, err) = host_sim(args!("retime", &ro, "--out", &out));
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("--accel-deg-s2") && err.contains("qdd_max_deg_s2"), "{err}");
+    assert!(
+        err.contains("--accel-deg-s2") && err.contains("qdd_max_deg_s2"),
+        "{err}"
+    );
     assert!(!out.exists());
     let (code, _, err) = host_sim(args!("retime", &ro, "--out", &out, "--accel-deg-s2=-1"));
     assert_eq!(code, Some(2), "{err}");

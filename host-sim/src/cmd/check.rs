@@ -22,12 +22,12 @@
 
 use crate::args::parse_eta;
 use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
-use crate::retiming::{self, RetimeSummary};
-use reactionless::retime::Setpoint;
 use crate::error::{CliError, Context};
+use crate::retiming::{self, RetimeSummary};
 use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::with_dims;
 use reactionless::integrator::euler_step;
+use reactionless::retime::Setpoint;
 use reactionless::{IDENTITY_WXYZ, RefineAgainst, Sample, Sink, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -204,7 +204,13 @@ fn verify_retimed<const N: usize, const K: usize>(
             dir.display()
         ))
     })?;
-    let fresh = retiming::compute(&task, &eta, &qdd_deg, lt.file.retime.grid, lt.file.retime.margin)?;
+    let fresh = retiming::compute(
+        &task,
+        &eta,
+        &qdd_deg,
+        lt.file.retime.grid,
+        lt.file.retime.margin,
+    )?;
     let dt = task.motion().dt();
     let mut lines = Vec::new();
     let bad_t = written
@@ -221,7 +227,10 @@ fn verify_retimed<const N: usize, const K: usize>(
     lines.push(line(
         "duration",
         format!("{last_t} s (minimum {:.4} s)", fresh.optimal_duration_s),
-        format!("= summary duration_s {} s, < minimum + dt", summary.duration_s),
+        format!(
+            "= summary duration_s {} s, < minimum + dt",
+            summary.duration_s
+        ),
         last_t == summary.duration_s
             && last_t >= fresh.optimal_duration_s
             && last_t < fresh.optimal_duration_s + dt * (1.0 + 1e-9),
@@ -243,7 +252,11 @@ fn verify_retimed<const N: usize, const K: usize>(
         if same {
             "bit for bit".into()
         } else {
-            format!("{} rows written, {} computed, or values differ", written.len(), fresh.setpoints.len())
+            format!(
+                "{} rows written, {} computed, or values differ",
+                written.len(),
+                fresh.setpoints.len()
+            )
         },
         "every bit".into(),
         same,
@@ -283,14 +296,29 @@ fn verify_retimed<const N: usize, const K: usize>(
         format!("<= {RETIME_TOLERANCE} x acceleration limit"),
         fd <= RETIME_TOLERANCE,
     ));
-    lines.push(joint_limits(&task, &written.iter().map(|s| Sample { step: s.step, t: s.t, q: s.q, qd: s.qd }).collect::<Vec<_>>()));
+    lines.push(joint_limits(
+        &task,
+        &written
+            .iter()
+            .map(|s| Sample {
+                step: s.step,
+                t: s.t,
+                q: s.q,
+                qd: s.qd,
+            })
+            .collect::<Vec<_>>(),
+    ));
     let ends_zero = match (written.first(), written.last()) {
         (Some(a), Some(b)) => a.qd.iter().chain(&b.qd).all(|v| *v == 0.0),
         _ => false,
     };
     lines.push(line(
         "qd = 0 at both ends",
-        if ends_zero { "exactly".into() } else { "not zero".into() },
+        if ends_zero {
+            "exactly".into()
+        } else {
+            "not zero".into()
+        },
         "= 0".into(),
         ends_zero,
     ));
@@ -309,7 +337,11 @@ fn verify_retimed<const N: usize, const K: usize>(
     let tolerance = lt.file.planner.tolerance;
     let e = written
         .last()
-        .map(|s| task.end_pose(&s.q, IDENTITY_WXYZ).error_to(task.target()).norm())
+        .map(|s| {
+            task.end_pose(&s.q, IDENTITY_WXYZ)
+                .error_to(task.target())
+                .norm()
+        })
         .unwrap_or(f64::INFINITY);
     lines.push(line(
         "pose error f (planner model)",

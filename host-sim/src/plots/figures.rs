@@ -313,8 +313,7 @@ pub(super) fn retime_figures(
         p.title = "Re-timed joint rates within their limits".into();
     }
     let range = |j: usize| (-qdd_limit[j].abs(), qdd_limit[j].abs());
-    let label =
-        |name: &str, (_, hi): (f64, f64)| format!("{name} (±{:.2}°/s²)", hi.to_degrees());
+    let label = |name: &str, (_, hi): (f64, f64)| format!("{name} (±{:.2}°/s²)", hi.to_degrees());
     let panel = normalised_panel(
         d,
         qdd,

@@ -541,7 +541,7 @@ fn controllable_max<const N: usize>(
         } else {
             0.0
         };
-        if !(root < x) {
+        if root.is_nan() || root >= x {
             break;
         }
         x = root.max(0.0);
@@ -650,7 +650,7 @@ pub fn solve<const N: usize>(
         let u = greedy_u(&r, ds, x, x_next_max);
         let next = (x + 2.0 * ds * u).clamp(0.0, x_next_max);
         let next = if i + 1 == m - 1 { 0.0 } else { next };
-        if !(next > 0.0) && i + 1 < m - 1 {
+        if (next.is_nan() || next <= 0.0) && i + 1 < m - 1 {
             return Err(Error::RetimeStalled { point: i + 1 });
         }
         duration += segment_time(ds, x, next);
@@ -716,7 +716,7 @@ impl Stream {
     pub fn new(profile: &Profile, dt_s: f64) -> Result<Self, Error> {
         check_positive(dt_s, Param::TimeStep)?;
         let ratio = profile.duration / dt_s;
-        if !(ratio < f64::from(MAX_STEPS)) {
+        if ratio.is_nan() || ratio >= f64::from(MAX_STEPS) {
             return Err(Error::TooManySteps);
         }
         // Round up to a whole step; a ratio within 1e-9 of an integer is that integer.

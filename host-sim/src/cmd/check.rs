@@ -281,9 +281,9 @@ fn verify_retimed<const N: usize, const K: usize>(
     let mut fd = 0.0f64;
     let mut fd_at = String::from("none");
     for (row, w) in written.windows(3).enumerate() {
-        for j in 0..N {
+        for (j, lim) in qdd_lim.iter().enumerate() {
             let a = (w[2].qd[j] - w[0].qd[j]) / (2.0 * dt);
-            let ratio = a.abs() / qdd_lim[j];
+            let ratio = a.abs() / lim;
             if ratio > fd || ratio.is_nan() {
                 fd = ratio;
                 fd_at = format!("qd{} around row {}", j + 1, row + 1);

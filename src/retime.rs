@@ -22,10 +22,11 @@
 //! are linear in `s`, so both `q̇_j²` and `q̈_j` stay within their end values: the limits
 //! hold at every setpoint, not only at grid points. A backward pass computes the upper end
 //! of each controllable set `K_i = [0, x̄_i]` (`x̄_{M−1} = 0`, rest at the end) by
-//! eliminating `u` in closed form (Fourier–Motzkin over the `2N` lower and `2N` upper
-//! bounds of `u`, O(N²) per point, exact for this 2-D LP); a greedy forward pass from
-//! `x_0 = 0` takes the largest admissible `u_i` that keeps `x_{i+1} ∈ K_{i+1}`. Work
-//! O(M·N²), no iteration. Each segment lasts `2Δ/(√x_i + √x_{i+1})`.
+//! eliminating `u` in closed form (every lower bound of `u` below every upper bound: exact
+//! for this 2-D LP; the pair condition is concave piecewise linear in `x`, its root found
+//! by Newton steps on the active pair, at most one per pair, typically one or two of O(N)
+//! each); a greedy forward pass from `x_0 = 0` takes the largest admissible `u_i` that
+//! keeps `x_{i+1} ∈ K_{i+1}`. Work O(M·N) in practice, bounded by O(M·N³), no LP solver. Each segment lasts `2Δ/(√x_i + √x_{i+1})`.
 //!
 //! **Stream.** The optimal duration `T*` is rounded up to a whole step, `T = K·dt`, by a
 //! uniform time scale `r = T*/T ≤ 1` (rates scale by `r`, accelerations by `r²`, so no

@@ -84,6 +84,12 @@ pub enum Param {
     FrameBudget,
     /// The total rollout budget.
     MaxRollouts,
+    /// Acceleration limit of joint `i` (rad/s²) for re-timing ([`crate::retime`]).
+    AccelLimit(u8),
+    /// Re-timing grid size `M` (points).
+    RetimeGrid,
+    /// Re-timing limit margin factor, in (0, 1].
+    RetimeMargin,
 }
 
 impl Param {
@@ -122,6 +128,9 @@ impl Param {
             Param::RefineRollouts => "planner.refine_max_rollouts",
             Param::FrameBudget => "planner.frame_budget",
             Param::MaxRollouts => "planner.max_rollouts",
+            Param::AccelLimit(_) => "limits.qdd_max_deg_s2",
+            Param::RetimeGrid => "retime.grid",
+            Param::RetimeMargin => "retime.margin",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -235,6 +244,27 @@ pub enum Error {
     /// The planner has no task yet ([`crate::Planner::IDLE`] before
     /// [`crate::Planner::reset`]).
     NotInitialized,
+    /// A re-timing margin factor above 1 (it must lie in (0, 1]).
+    MarginAboveOne,
+    /// A re-timing grid of fewer than [`crate::retime::MIN_GRID`] points.
+    GridTooSmall,
+    /// A path to re-time has no length (fewer than two distinct samples, or not finite).
+    PathTooShort,
+    /// The path's speed vanishes inside it (it stops and moves on, or turns back) at
+    /// sample `sample` (0-based): no finite-time re-timing with acceleration limits exists.
+    PathStalls {
+        /// The sample where the path stops.
+        sample: u32,
+    },
+    /// The samples given to [`crate::retime::PathBuilder`] are not those measured by
+    /// [`crate::retime::ArcLength`], or a grid does not match its path.
+    PathMismatch,
+    /// Re-timing found no positive speed at interior grid point `point` (the path needs
+    /// infinite time there, e.g. at a corner).
+    RetimeStalled {
+        /// Grid point (0-based).
+        point: u32,
+    },
 }
 
 impl Error {
@@ -292,6 +322,9 @@ impl fmt::Display for Param {
             Param::RefineRollouts => f.write_str("refine_max_rollouts"),
             Param::FrameBudget => f.write_str("frame_budget"),
             Param::MaxRollouts => f.write_str("max_rollouts"),
+            Param::AccelLimit(j) => write!(f, "acceleration limit of joint {j}"),
+            Param::RetimeGrid => f.write_str("retime grid size"),
+            Param::RetimeMargin => f.write_str("retime margin"),
         }
     }
 }
@@ -358,6 +391,24 @@ impl fmt::Display for Error {
             } => write!(f, "{param} {requested} exceeds the capacity of {capacity}"),
             Error::InertiaWeightsInverted => f.write_str("w_min must not exceed w_max"),
             Error::NotInitialized => f.write_str("the planner has no task yet (call reset)"),
+            Error::MarginAboveOne => f.write_str("retime margin must lie in (0, 1]"),
+            Error::GridTooSmall => write!(
+                f,
+                "retime grid must have at least {} points",
+                crate::retime::MIN_GRID
+            ),
+            Error::PathTooShort => f.write_str("the path to re-time has no length"),
+            Error::PathStalls { sample } => write!(
+                f,
+                "the path's speed vanishes inside it at sample {sample} (it stops or turns back)"
+            ),
+            Error::PathMismatch => {
+                f.write_str("the re-timing grid does not match its path (not the same samples)")
+            }
+            Error::RetimeStalled { point } => write!(
+                f,
+                "re-timing found no positive speed at grid point {point}"
+            ),
             Error::Block(fault) => write!(
                 f,
                 "task block: {}",

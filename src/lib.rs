@@ -17,7 +17,8 @@
 //! [`trajectory`] / [`task`] → [`rollout`] → [`optimizer`] ([`cpso`] over [`swarm`],
 //! [`refine`]) → [`planner`], and [`execute`] streams a plan's setpoints; [`config`] holds
 //! every planner setting, [`truth`] checks a trajectory, [`random`] is the only source of
-//! randomness, [`reference`] holds the reference scenario of spec §8.
+//! randomness, [`reference`] holds the reference scenario of spec §8; [`retime`] re-times a
+//! planned path to minimum time under joint rate and acceleration limits.
 //!
 //! Verifies RL-GOLD-004.
 //!
@@ -70,6 +71,7 @@ pub mod planner;
 pub mod random;
 pub mod reference;
 pub mod refine;
+pub mod retime;
 pub mod rollout;
 pub mod swarm;
 pub mod task;

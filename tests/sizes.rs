@@ -31,3 +31,15 @@ fn documented_sizes_for_the_reference_robot() {
     assert_eq!(size_of::<Planner<7, 4, 64>>(), 37072);
     assert_eq!(size_of::<Multistart<7, 4>>(), 13808);
 }
+
+/// `GridPoint<N>` is `8(N+1)` bytes (docs/retime.md, "Storage"); the stream's state is
+/// O(1): a fixed size independent of the grid.
+/// Verifies RL-RETIME-002.
+#[test]
+fn documented_retime_sizes() {
+    use reactionless::retime::{GridPoint, Stream};
+    assert_eq!(size_of::<GridPoint<7>>(), 64);
+    assert_eq!(size_of::<GridPoint<9>>(), 80);
+    println!("Stream: {} bytes", size_of::<Stream>());
+    assert!(size_of::<Stream>() <= 96);
+}

@@ -22,6 +22,7 @@ pub mod flight;
 pub mod output;
 pub mod plots;
 pub mod records;
+pub mod retiming;
 pub mod stats;
 pub mod taskfile;
 pub mod urdf;

@@ -30,6 +30,49 @@ pub struct TaskFile {
     /// `[check]`: thresholds of `host-sim check`.
     #[serde(default)]
     pub check: CheckSection,
+    /// `[limits]`: joint limits beyond the URDF's (acceleration, for `retime`).
+    #[serde(default)]
+    pub limits: LimitsSection,
+    /// `[retime]`: settings of `host-sim retime` and `plan --retime`.
+    #[serde(default)]
+    pub retime: RetimeSection,
+}
+
+/// One number for every joint, or one per joint.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum PerJoint {
+    /// The same value for every joint.
+    One(f64),
+    /// One value per joint, in URDF order.
+    Each(Vec<f64>),
+}
+
+/// `[limits]`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LimitsSection {
+    /// Joint acceleration limits (deg/s²), one number or one per joint, > 0.
+    pub qdd_max_deg_s2: Option<PerJoint>,
+}
+
+/// `[retime]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RetimeSection {
+    /// Arc-length grid points (≥ 3).
+    pub grid: u32,
+    /// Factor applied to every rate and acceleration limit, in (0, 1].
+    pub margin: f64,
+}
+
+impl Default for RetimeSection {
+    fn default() -> Self {
+        Self {
+            grid: reactionless::retime::DEFAULT_GRID,
+            margin: 1.0,
+        }
+    }
 }
 
 /// `[check]`: what `host-sim check` accepts.
@@ -242,6 +285,37 @@ impl LoadedTask {
             .into_iter()
             .flatten()
             .reduce(f64::min))
+    }
+
+    /// `[limits] qdd_max_deg_s2` (deg/s², or `accel_deg_s2` for every joint when given),
+    /// checked for length, finiteness and sign; `None` if neither is set.
+    pub fn qdd_max_deg<const N: usize>(
+        &self,
+        accel_deg_s2: Option<f64>,
+    ) -> Result<Option<[f64; N]>, CliError> {
+        let key = "[limits] qdd_max_deg_s2";
+        let values: Vec<f64> = match (accel_deg_s2, &self.file.limits.qdd_max_deg_s2) {
+            (Some(a), _) => vec![a; N],
+            (None, Some(PerJoint::One(a))) => vec![*a; N],
+            (None, Some(PerJoint::Each(v))) => {
+                self.length(key, v, N)?;
+                v.clone()
+            }
+            (None, None) => return Ok(None),
+        };
+        let mut out = [0.0; N];
+        for (i, (o, v)) in out.iter_mut().zip(&values).enumerate() {
+            if !(v.is_finite() && *v > 0.0) {
+                let what = if accel_deg_s2.is_some() {
+                    "--accel-deg-s2".to_string()
+                } else {
+                    format!("{key}[{i}]")
+                };
+                return Err(self.err(format!("{what} = {v} must be a finite number > 0")));
+            }
+            *o = *v;
+        }
+        Ok(Some(out))
     }
 
     /// `[check] max_base_disturbance_deg`.

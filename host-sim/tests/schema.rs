@@ -23,6 +23,7 @@ fn schemas() -> Vec<(&'static str, Value)> {
     vec![
         ("plan", v(schema_for!(host_sim::cmd::plan::PlanJson))),
         ("summary", v(schema_for!(host_sim::artifacts::Summary))),
+        ("retime", v(schema_for!(host_sim::retiming::RetimeSummary))),
         ("record", v(schema_for!(host_sim::records::Record))),
         ("bench", v(schema_for!(host_sim::cmd::bench::BenchJson))),
         ("frames", v(schema_for!(host_sim::cmd::frames::FramesJson))),

@@ -11,6 +11,12 @@
 //! - the base disturbance of the written path (truth model, 10 midpoint sub-steps) below
 //!   `[check] max_base_disturbance_deg`.
 //!
+//! A re-timed bundle (`retime`, `plan --retime`; its summary has `original_duration_s`) is
+//! verified instead against a fresh re-timing of its η (bit for bit), the time grid and
+//! duration, every rate and acceleration against its limit (written q̈ and central
+//! differences of the written q̇, 0.5 % tolerance), rest at both ends, the end q against
+//! the original plan's (1e-9 rad), the end pose and the base disturbance (truth model).
+//!
 //! Prints a table. Exit 0 if everything passes, 1 if anything fails, 2 if the directory
 //! cannot be read as a host-sim output.
 
@@ -18,9 +24,11 @@ use crate::args::parse_eta;
 use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
 use crate::error::{CliError, Context};
 use crate::output::read_trajectory_csv;
+use crate::retiming::{self, RetimeSummary};
 use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::with_dims;
 use reactionless::integrator::euler_step;
+use reactionless::retime::Setpoint;
 use reactionless::{IDENTITY_WXYZ, RefineAgainst, Sample, Sink, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -108,10 +116,246 @@ pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
     let task_text = read(dir, BUNDLE_TASK)?;
     let urdf_text = read(dir, BUNDLE_URDF)?;
     let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
-    let summary: Summary = serde_json::from_str(&read(dir, "summary.json")?)
-        .or_input(|| format!("{}: summary.json", dir.display()))?;
+    let summary_text = read(dir, "summary.json")?;
     let csv = read(dir, "trajectory.csv")?;
+    if summary_text.contains("\"original_duration_s\"") {
+        let summary: RetimeSummary = serde_json::from_str(&summary_text)
+            .or_input(|| format!("{}: summary.json", dir.display()))?;
+        return with_dims!(lt.chain.dof(), verify_retimed, &lt, dir, &summary, &csv);
+    }
+    let summary: Summary = serde_json::from_str(&summary_text)
+        .or_input(|| format!("{}: summary.json", dir.display()))?;
     with_dims!(lt.chain.dof(), verify_n, &lt, dir, &summary.eta, &csv)
+}
+
+/// Limits may be exceeded by this factor at a written setpoint (the 0.5 %).
+pub const RETIME_TOLERANCE: f64 = 1.005;
+
+/// Parses a re-timed CSV: header `t,q..,qd..,qdd..`, rows of `1 + 3N` numbers.
+fn parse_retimed<const N: usize>(dir: &Path, csv: &str) -> Result<Vec<Setpoint<N>>, CliError> {
+    let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
+    let mut lines = csv.lines();
+    let header = lines.next().ok_or_else(|| err("empty file".into()))?;
+    let want = retiming::header(N);
+    if header != want {
+        return Err(err(format!("header {header:?}, expected {want:?}")));
+    }
+    let mut out = Vec::new();
+    for (row, text) in lines.enumerate() {
+        let v: Vec<f64> = text
+            .split(',')
+            .map(|v| v.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
+        if v.len() != 1 + 3 * N {
+            return Err(err(format!(
+                "row {}: {} values, expected {}",
+                row + 1,
+                v.len(),
+                1 + 3 * N
+            )));
+        }
+        let mut s = Setpoint {
+            step: row as u32,
+            t: v[0],
+            q: [0.0; N],
+            qd: [0.0; N],
+            qdd: [0.0; N],
+        };
+        s.q.copy_from_slice(&v[1..=N]);
+        s.qd.copy_from_slice(&v[N + 1..=2 * N]);
+        s.qdd.copy_from_slice(&v[2 * N + 1..]);
+        out.push(s);
+    }
+    Ok(out)
+}
+
+/// The worst `|value|/limit` over the setpoints, and where.
+fn worst_ratio<const N: usize>(
+    written: &[Setpoint<N>],
+    limits: &[f64],
+    pick: impl Fn(&Setpoint<N>) -> [f64; N],
+    name: &str,
+) -> (f64, String) {
+    let mut worst = (0.0f64, String::from("none"));
+    for (row, s) in written.iter().enumerate() {
+        for (j, (v, l)) in pick(s).iter().zip(limits).enumerate() {
+            let r = v.abs() / l;
+            if r > worst.0 || r.is_nan() {
+                worst = (r, format!("{name}{} at row {row}", j + 1));
+            }
+        }
+    }
+    worst
+}
+
+/// The checks of a re-timed bundle (written by `retime` or `plan --retime`).
+fn verify_retimed<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    dir: &Path,
+    summary: &RetimeSummary,
+    csv: &str,
+) -> Result<Vec<Line>, CliError> {
+    let task = lt.task::<N, K>()?;
+    let eta = parse_eta::<K>(&summary.eta)?;
+    let written = parse_retimed::<N>(dir, csv)?;
+    let qdd_deg = lt.qdd_max_deg::<N>(None)?.ok_or_else(|| {
+        CliError::input(format!(
+            "{}: a re-timed bundle without [limits] qdd_max_deg_s2",
+            dir.display()
+        ))
+    })?;
+    let fresh = retiming::compute(
+        &task,
+        &eta,
+        &qdd_deg,
+        lt.file.retime.grid,
+        lt.file.retime.margin,
+    )?;
+    let dt = task.motion().dt();
+    let mut lines = Vec::new();
+    let bad_t = written
+        .iter()
+        .enumerate()
+        .find(|(k, s)| s.t.to_bits() != (*k as f64 * dt).to_bits());
+    lines.push(line(
+        "time grid",
+        bad_t.map_or("exact".into(), |(k, s)| format!("row {k}: t = {}", s.t)),
+        format!("t_k = k*{dt} s"),
+        bad_t.is_none(),
+    ));
+    let last_t = written.last().map_or(f64::NAN, |s| s.t);
+    lines.push(line(
+        "duration",
+        format!("{last_t} s (minimum {:.4} s)", fresh.optimal_duration_s),
+        format!(
+            "= summary duration_s {} s, < minimum + dt",
+            summary.duration_s
+        ),
+        last_t == summary.duration_s
+            && last_t >= fresh.optimal_duration_s
+            && last_t < fresh.optimal_duration_s + dt * (1.0 + 1e-9),
+    ));
+    let same = written.len() == fresh.setpoints.len()
+        && written.iter().zip(&fresh.setpoints).all(|(a, b)| {
+            let bits = |s: &Setpoint<N>| {
+                std::iter::once(s.t)
+                    .chain(s.q)
+                    .chain(s.qd)
+                    .chain(s.qdd)
+                    .map(f64::to_bits)
+                    .collect::<Vec<_>>()
+            };
+            bits(a) == bits(b)
+        });
+    lines.push(line(
+        "matches a fresh re-timing of eta",
+        if same {
+            "bit for bit".into()
+        } else {
+            format!(
+                "{} rows written, {} computed, or values differ",
+                written.len(),
+                fresh.setpoints.len()
+            )
+        },
+        "every bit".into(),
+        same,
+    ));
+    let qd_lim = fresh.limits.qd_max().to_vec();
+    let qdd_lim = fresh.limits.qdd_max().to_vec();
+    let (r, at) = worst_ratio(&written, &qd_lim, |s| s.qd, "qd");
+    lines.push(line(
+        "joint rates",
+        format!("{:.4} of the limit ({at})", r),
+        format!("<= {RETIME_TOLERANCE} x rate limit"),
+        r <= RETIME_TOLERANCE,
+    ));
+    let (r, at) = worst_ratio(&written, &qdd_lim, |s| s.qdd, "qdd");
+    lines.push(line(
+        "joint accelerations (written)",
+        format!("{:.4} of the limit ({at})", r),
+        format!("<= {RETIME_TOLERANCE} x acceleration limit"),
+        r <= RETIME_TOLERANCE,
+    ));
+    // Independent of the written q̈: central differences of the written q̇.
+    let mut fd = 0.0f64;
+    let mut fd_at = String::from("none");
+    for (row, w) in written.windows(3).enumerate() {
+        for (j, lim) in qdd_lim.iter().enumerate() {
+            let a = (w[2].qd[j] - w[0].qd[j]) / (2.0 * dt);
+            let ratio = a.abs() / lim;
+            if ratio > fd || ratio.is_nan() {
+                fd = ratio;
+                fd_at = format!("qd{} around row {}", j + 1, row + 1);
+            }
+        }
+    }
+    lines.push(line(
+        "joint accelerations (differences of qd)",
+        format!("{fd:.4} of the limit ({fd_at})"),
+        format!("<= {RETIME_TOLERANCE} x acceleration limit"),
+        fd <= RETIME_TOLERANCE,
+    ));
+    lines.push(joint_limits(
+        &task,
+        &written
+            .iter()
+            .map(|s| Sample {
+                step: s.step,
+                t: s.t,
+                q: s.q,
+                qd: s.qd,
+            })
+            .collect::<Vec<_>>(),
+    ));
+    let ends_zero = match (written.first(), written.last()) {
+        (Some(a), Some(b)) => a.qd.iter().chain(&b.qd).all(|v| *v == 0.0),
+        _ => false,
+    };
+    lines.push(line(
+        "qd = 0 at both ends",
+        if ends_zero {
+            "exactly".into()
+        } else {
+            "not zero".into()
+        },
+        "= 0".into(),
+        ends_zero,
+    ));
+    let end_diff = written.last().map_or(f64::INFINITY, |s| {
+        s.q.iter()
+            .zip(&fresh.q_final)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    });
+    lines.push(line(
+        "end q vs the original plan's q_S",
+        format!("{end_diff:.3e} rad"),
+        "<= 1e-9 rad".into(),
+        end_diff <= 1e-9,
+    ));
+    let tolerance = lt.file.planner.tolerance;
+    let e = written
+        .last()
+        .map(|s| {
+            task.end_pose(&s.q, IDENTITY_WXYZ)
+                .error_to(task.target())
+                .norm()
+        })
+        .unwrap_or(f64::INFINITY);
+    lines.push(line(
+        "pose error f (planner model)",
+        format!("{e:.3e}"),
+        format!("<= {tolerance:e} ([planner] tolerance)"),
+        e <= tolerance.max(lt.file.planner.refine_tolerance.unwrap_or(0.0)),
+    ));
+    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
+    for s in &written {
+        truth.push(&s.q, s.t);
+    }
+    lines.push(base_disturbance(lt, &truth));
+    Ok(lines)
 }
 
 fn column_name<const N: usize>(c: usize) -> String {

@@ -1,6 +1,6 @@
 //! One leaf per subcommand. Each file owns its `clap::Args` struct (flags and help) and
 //! `Args::run`; leaves import only the shared modules (`args`, `artifacts`, `drive`,
-//! `records`, `stats`, `output`, `taskfile`, `urdf`, `plots`, `view`), never each other. A new
+//! `records`, `retiming`, `stats`, `output`, `taskfile`, `urdf`, `plots`, `view`), never each other. A new
 //! subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
@@ -15,6 +15,7 @@ pub mod model;
 pub mod plan;
 pub mod record;
 pub mod replay;
+pub mod retime;
 pub mod rollout;
 pub mod target;
 pub mod view;

@@ -13,6 +13,7 @@ use crate::artifacts::{
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::CliError;
 use crate::output::OutDir;
+use crate::retiming;
 use crate::taskfile::{self, LoadedTask};
 use crate::view;
 use crate::with_dims;
@@ -112,6 +113,13 @@ pub struct Args {
     /// view.html.
     #[arg(long)]
     plots: bool,
+    /// Also re-time the plan to minimum time into OUT/retimed/ (as `host-sim retime`),
+    /// under `[limits] qdd_max_deg_s2` or `--accel-deg-s2`.
+    #[arg(long)]
+    retime: bool,
+    /// Acceleration limit of every joint for `--retime` (deg/s²).
+    #[arg(long, requires = "retime")]
+    accel_deg_s2: Option<f64>,
 }
 
 impl Args {
@@ -198,7 +206,39 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
         wall_time_s: done.seconds,
     };
     dir.write_json("plan.json", &json)?;
+    let retimed = if args.retime {
+        let qdd = lt.qdd_max_deg::<N>(args.accel_deg_s2)?.ok_or_else(|| {
+            CliError::input(format!(
+                "{}: --retime needs acceleration limits: give --accel-deg-s2 or set [limits] qdd_max_deg_s2",
+                lt.path.display()
+            ))
+        })?;
+        let sub = OutDir::create(&dir.path("retimed"))?;
+        let s = retiming::write(
+            lt,
+            &task,
+            &p.eta,
+            &qdd,
+            lt.file.retime.grid,
+            lt.file.retime.margin,
+            &sub,
+            args.plots,
+        )?;
+        sub.commit()?;
+        Some(s)
+    } else {
+        None
+    };
     let path = dir.commit()?;
+    if let Some(s) = retimed {
+        eprintln!(
+            "retime: {:.2} s (was {:.2} s), base disturbance = {:.3e} deg -> {}/retimed",
+            s.duration_s,
+            s.original_duration_s,
+            s.base_disturbance_deg,
+            path.display()
+        );
+    }
     eprintln!("{}", human_summary(lt, &config, &json, &run, &path));
     if converged {
         Ok(())

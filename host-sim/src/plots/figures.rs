@@ -297,6 +297,38 @@ fn rates_figure(d: &PlotData) -> Result<Figure, String> {
     Ok(single("joint_rates", (1000, 600), panel, d))
 }
 
+/// The figures of a re-timed trajectory: rates (`d.qd` against `d.qd_limit`) and
+/// accelerations (`qdd` against `qdd_limit`), each as a fraction of `[−limit, +limit]`.
+pub(super) fn retime_figures(
+    d: &PlotData,
+    qdd: &[Vec<f64>],
+    qdd_limit: &[f64],
+) -> Result<Vec<Figure>, String> {
+    if qdd.len() != d.t.len() || qdd_limit.len() != d.joint_names.len() {
+        return Err("accelerations do not match the setpoints".into());
+    }
+    let mut rates = rates_figure(d)?;
+    rates.name = "retimed_rates";
+    if let Some(p) = rates.panels.first_mut() {
+        p.title = "Re-timed joint rates within their limits".into();
+    }
+    let range = |j: usize| (-qdd_limit[j].abs(), qdd_limit[j].abs());
+    let label = |name: &str, (_, hi): (f64, f64)| format!("{name} (±{:.2}°/s²)", hi.to_degrees());
+    let panel = normalised_panel(
+        d,
+        qdd,
+        &range,
+        &label,
+        "qdd",
+        "Re-timed joint accelerations within their limits",
+        "acceleration in range (0 = −limit, 0.5 = 0, 1 = +limit)",
+    )?;
+    Ok(vec![
+        rates,
+        single("retimed_accelerations", (1000, 600), panel, d),
+    ])
+}
+
 fn base_figure(d: &PlotData) -> Result<Figure, String> {
     let (t0, t1) = time_range(d)?;
     let segs = segments(d.t.iter().copied().zip(d.base_angle_deg.iter().copied()));

@@ -70,8 +70,84 @@ pub fn write_plots(dir: &Path, data: &PlotData) -> Result<Vec<String>, CliError>
     let err = |e: String| CliError::input(format!("writing plots: {e}"));
     ensure_font().map_err(err)?;
     let figures = figures(data).map_err(err)?;
+    render(dir, &figures)
+}
+
+/// What the figures of a re-timed trajectory need (SI units, radians).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RetimePlotData {
+    /// Joint names (URDF), one per joint.
+    pub joint_names: Vec<String>,
+    /// Setpoint times (s).
+    pub t: Vec<f64>,
+    /// Joint rates per setpoint (rad/s).
+    pub qd: Vec<Vec<f64>>,
+    /// Joint accelerations per setpoint (rad/s²).
+    pub qdd: Vec<Vec<f64>>,
+    /// Rate limit per joint, as used (rad/s).
+    pub qd_limit: Vec<f64>,
+    /// Acceleration limit per joint, as used (rad/s²).
+    pub qdd_limit: Vec<f64>,
+    /// What made the figure.
+    pub stamp: String,
+}
+
+/// Writes `retimed_rates` and `retimed_accelerations` (PNG and SVG) into `dir`: each
+/// joint's rate and acceleration as a fraction of its range `[−limit, +limit]`.
+pub fn write_retime_data(dir: &Path, data: &RetimePlotData) -> Result<Vec<String>, CliError> {
+    let err = |e: String| CliError::input(format!("writing plots: {e}"));
+    ensure_font().map_err(err)?;
+    let base = PlotData {
+        joint_names: data.joint_names.clone(),
+        t: data.t.clone(),
+        q: data.qd.clone(),
+        qd: data.qd.clone(),
+        lower: data.qd_limit.iter().map(|v| -v).collect(),
+        upper: data.qd_limit.clone(),
+        qd_limit: data.qd_limit.clone(),
+        ee: vec![[0.0; 3]; data.t.len()],
+        target: [0.0; 3],
+        base_angle_deg: vec![0.0; data.t.len()],
+        best_f_history: None,
+        tolerance: 1.0,
+        first_hit: None,
+        base_limit_deg: 1.0,
+        stamp: data.stamp.clone(),
+    };
+    let figures = figures::retime_figures(&base, &data.qdd, &data.qdd_limit).map_err(err)?;
+    render(dir, &figures)
+}
+
+/// The figures of a re-timed bundle (see [`write_retime_data`]).
+pub fn write_retime_plots<const N: usize>(
+    dir: &Path,
+    lt: &crate::taskfile::LoadedTask,
+    r: &crate::retiming::Retimed<N>,
+) -> Result<Vec<String>, CliError> {
+    let sp = &r.setpoints;
+    write_retime_data(
+        dir,
+        &RetimePlotData {
+            joint_names: lt.chain.joint_names.clone(),
+            t: sp.iter().map(|s| s.t).collect(),
+            qd: sp.iter().map(|s| s.qd.to_vec()).collect(),
+            qdd: sp.iter().map(|s| s.qdd.to_vec()).collect(),
+            qd_limit: r.limits.qd_max().to_vec(),
+            qdd_limit: r.limits.qdd_max().to_vec(),
+            stamp: format!(
+                "{} · retimed · host-sim {} ({})",
+                lt.path.display(),
+                env!("CARGO_PKG_VERSION"),
+                crate::records::Build::current().git_revision
+            ),
+        },
+    )
+}
+
+fn render(dir: &Path, figures: &[figures::Figure]) -> Result<Vec<String>, CliError> {
+    let err = |e: String| CliError::input(format!("writing plots: {e}"));
     let mut written = Vec::with_capacity(2 * figures.len());
-    for fig in &figures {
+    for fig in figures {
         let png = format!("{}.png", fig.name);
         {
             let path = dir.join(&png);

@@ -1,0 +1,261 @@
+//! What `retime` and `plan --retime` write, and what `check` recomputes: a planned η
+//! re-timed to minimum time under the joint rate limits (URDF) and acceleration limits
+//! (`[limits] qdd_max_deg_s2` or `--accel-deg-s2`) with the core's [`reactionless::retime`].
+//!
+//! Owns [`RetimeSummary`] (`summary.json` of a re-timed bundle), [`compute`] (the core's
+//! re-timing of one η: grid, solve, every setpoint) and [`write`] (the bundle:
+//! `trajectory.csv` with header `t,q1..qN,qd1..qdN,qdd1..qddN`, `summary.json`, `task.toml`
+//! with the limits and grid used, `robot.urdf`, and with `--plots` the rate and
+//! acceleration figures).
+
+use crate::artifacts::{PoseJson, TRUTH_SUBSTEPS};
+use crate::error::{CliError, Context};
+use crate::output::OutDir;
+use crate::taskfile::{self, LoadedTask};
+use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
+use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
+use serde::{Deserialize, Serialize};
+use std::io::Write as _;
+
+/// `summary.json` of a re-timed bundle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RetimeSummary {
+    /// η as given (the path is its rollout).
+    pub eta: Vec<f64>,
+    /// Written duration `K·dt` (s): the minimum time rounded up to a whole step.
+    pub duration_s: f64,
+    /// Minimum time on the grid before rounding (s).
+    pub optimal_duration_s: f64,
+    /// Duration of the plan as planned, `t_f` (s).
+    pub original_duration_s: f64,
+    /// Step of the setpoints (s).
+    pub dt_s: f64,
+    /// Steps `K` (the file has `K + 1` rows).
+    pub steps: u32,
+    /// Arc-length grid points.
+    pub grid: u32,
+    /// Limit margin factor applied.
+    pub margin: f64,
+    /// Joint-space arc length of the path (rad).
+    pub path_length_rad: f64,
+    /// Rate limits used, per joint, margin applied (rad/s).
+    pub qd_max: Vec<f64>,
+    /// Acceleration limits used, per joint, margin applied (rad/s²).
+    pub qdd_max: Vec<f64>,
+    /// Largest |q̇| per joint over the written setpoints (rad/s).
+    pub max_abs_qdot: Vec<f64>,
+    /// Largest |q̈| per joint over the written setpoints (rad/s²).
+    pub max_abs_qddot: Vec<f64>,
+    /// Largest base rotation of the written path, truth model (deg).
+    pub base_disturbance_deg: f64,
+    /// End pose of the last written q (planner model).
+    pub end_pose: PoseJson,
+    /// f of that pose against the task target.
+    pub f: f64,
+    /// Largest |q_K − q_S| between the re-timed and the original end (rad).
+    pub end_q_difference_rad: f64,
+    /// FNV-1a-64 of every setpoint's bits (t, q, q̇, q̈), hex; what the flight image prints.
+    pub setpoint_digest: String,
+}
+
+/// A re-timed η: the setpoints and the figures of the solve.
+pub struct Retimed<const N: usize> {
+    /// Every setpoint, `k = 0..=K`.
+    pub setpoints: Vec<Setpoint<N>>,
+    /// Minimum time on the grid (s).
+    pub optimal_duration_s: f64,
+    /// Arc length (rad).
+    pub path_length_rad: f64,
+    /// The limits in force.
+    pub limits: Limits<N>,
+    /// The original end configuration q_S (rad).
+    pub q_final: [f64; N],
+}
+
+/// Re-times `eta` of `task` on `grid` points under `qdd_max_deg` (deg/s²), the URDF rate
+/// limits and `margin`.
+pub fn compute<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    qdd_max_deg: &[f64; N],
+    grid: u32,
+    margin: f64,
+) -> Result<Retimed<N>, CliError> {
+    let qd = task.robot().desc().joints.map(|j| j.velocity);
+    let limits =
+        Limits::new(qd, qdd_max_deg.map(f64::to_radians), margin).map_err(|e| match e.param() {
+            Some(reactionless::Param::RetimeMargin) | None => {
+                CliError::input(format!("[retime] margin = {margin}: {e}"))
+            }
+            Some(_) => CliError::input(format!("limits: {e}")),
+        })?;
+    let q_final = task
+        .rollout(eta, &mut ())
+        .or_failed(|| "rollout of eta failed")?
+        .q_final;
+    let mut storage = vec![GridPoint::<N>::ZERO; grid as usize];
+    let path = retime::path_of_rollout(task, eta, &mut storage, grid).map_err(|e| {
+        CliError::input(format!(
+            "[retime] grid = {grid}: cannot build the path: {e}"
+        ))
+    })?;
+    let profile = retime::solve(&mut storage, &path, &limits).or_failed(|| "re-timing failed")?;
+    let mut stream =
+        Stream::new(&profile, task.motion().dt()).or_failed(|| "re-timed setpoints")?;
+    let mut setpoints = Vec::with_capacity(stream.steps() as usize + 1);
+    while let Some(sp) = stream.next(&storage) {
+        setpoints.push(sp);
+    }
+    Ok(Retimed {
+        setpoints,
+        optimal_duration_s: profile.duration(),
+        path_length_rad: path.length(),
+        limits,
+        q_final,
+    })
+}
+
+/// The CSV header for `n` joints: `t,q1..qN,qd1..qdN,qdd1..qddN`.
+pub fn header(n: usize) -> String {
+    let mut h = String::from("t");
+    for prefix in ["q", "qd", "qdd"] {
+        for i in 1..=n {
+            h.push_str(&format!(",{prefix}{i}"));
+        }
+    }
+    h
+}
+
+/// The digest of a setpoint sequence, as 16 hex digits.
+pub fn digest<const N: usize>(setpoints: &[Setpoint<N>]) -> String {
+    let mut d = TrajectoryDigest::new();
+    for sp in setpoints {
+        sp.digest(&mut d);
+    }
+    format!("{:016x}", d.value())
+}
+
+/// The truth model over the setpoints as written: its largest base rotation (deg).
+pub fn base_disturbance_deg<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    setpoints: &[Setpoint<N>],
+) -> Result<f64, CliError> {
+    let mut truth = TruthModel::new(task, TRUTH_SUBSTEPS);
+    for sp in setpoints {
+        truth.push(&sp.q, sp.t);
+    }
+    if let Some(e) = truth.error() {
+        return Err(CliError::failed(format!("truth model failed: {e}")));
+    }
+    Ok(truth.max_angle().to_degrees())
+}
+
+/// Largest |value| per joint of `pick` over the setpoints.
+pub fn max_abs<const N: usize>(
+    setpoints: &[Setpoint<N>],
+    pick: impl Fn(&Setpoint<N>) -> [f64; N],
+) -> Vec<f64> {
+    let mut m = vec![0.0f64; N];
+    for sp in setpoints {
+        for (o, v) in m.iter_mut().zip(pick(sp)) {
+            *o = o.max(v.abs());
+        }
+    }
+    m
+}
+
+/// Writes the re-timed bundle of `eta` into `dir` and returns its summary.
+#[allow(clippy::too_many_arguments)]
+pub fn write<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    qdd_max_deg: &[f64; N],
+    grid: u32,
+    margin: f64,
+    dir: &OutDir,
+    plots: bool,
+) -> Result<RetimeSummary, CliError> {
+    let r = compute(task, eta, qdd_max_deg, grid, margin)?;
+    let sp = &r.setpoints;
+    let last = sp
+        .last()
+        .ok_or_else(|| CliError::internal("no setpoints"))?;
+    let mut csv = std::io::BufWriter::new(
+        std::fs::File::create(dir.path("trajectory.csv"))
+            .or_input(|| "cannot create trajectory.csv")?,
+    );
+    let mut text = header(N);
+    text.push('\n');
+    let mut buf = ryu::Buffer::new();
+    for s in sp {
+        text.push_str(buf.format(s.t));
+        for v in s.q.iter().chain(&s.qd).chain(&s.qdd) {
+            text.push(',');
+            text.push_str(buf.format(*v));
+        }
+        text.push('\n');
+    }
+    csv.write_all(text.as_bytes())
+        .and_then(|()| csv.flush())
+        .or_input(|| "writing trajectory.csv")?;
+    let end = task.end_pose(&last.q, IDENTITY_WXYZ);
+    let dt = task.motion().dt();
+    let summary = RetimeSummary {
+        eta: eta.iter().flatten().copied().collect(),
+        duration_s: last.t,
+        optimal_duration_s: r.optimal_duration_s,
+        original_duration_s: task.motion().tf(),
+        dt_s: dt,
+        steps: last.step,
+        grid,
+        margin,
+        path_length_rad: r.path_length_rad,
+        qd_max: r.limits.qd_max().to_vec(),
+        qdd_max: r.limits.qdd_max().to_vec(),
+        max_abs_qdot: max_abs(sp, |s| s.qd),
+        max_abs_qddot: max_abs(sp, |s| s.qdd),
+        base_disturbance_deg: base_disturbance_deg(task, sp)?,
+        end_pose: (&end).into(),
+        f: end.error_to(task.target()).norm(),
+        end_q_difference_rad: last
+            .q
+            .iter()
+            .zip(&r.q_final)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max),
+        setpoint_digest: digest(sp),
+    };
+    dir.write_json("summary.json", &summary)?;
+    write_bundle(lt, dir, qdd_max_deg, grid, margin)?;
+    if plots {
+        crate::plots::write_retime_plots(&dir.path(""), lt, &r)?;
+    }
+    Ok(summary)
+}
+
+/// The bundle with the limits and grid that were used, so `check` re-derives the same bits.
+fn write_bundle<const N: usize>(
+    lt: &LoadedTask,
+    dir: &OutDir,
+    qdd_max_deg: &[f64; N],
+    grid: u32,
+    margin: f64,
+) -> Result<(), CliError> {
+    let (text, urdf) = lt.bundle(None, None)?;
+    let mut table: toml::Table = toml::from_str(&text).or_internal(|| "re-reading the task")?;
+    let mut limits = toml::Table::new();
+    limits.insert(
+        "qdd_max_deg_s2".into(),
+        toml::Value::Array(qdd_max_deg.iter().map(|v| toml::Value::Float(*v)).collect()),
+    );
+    table.insert("limits".into(), toml::Value::Table(limits));
+    let mut rt = toml::Table::new();
+    rt.insert("grid".into(), toml::Value::Integer(i64::from(grid)));
+    rt.insert("margin".into(), toml::Value::Float(margin));
+    table.insert("retime".into(), toml::Value::Table(rt));
+    let text = toml::to_string(&table).or_internal(|| "writing the task")?;
+    dir.write(taskfile::BUNDLE_TASK, text.as_bytes())?;
+    dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
+}

@@ -192,6 +192,30 @@ pub fn write_bundle(
     dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
 }
 
+/// Reads `name` from output directory `dir`; the error says where to point instead.
+pub fn read_output_file(dir: &std::path::Path, name: &str) -> Result<String, CliError> {
+    std::fs::read_to_string(dir.join(name)).map_err(|e| {
+        CliError::input(format!(
+            "{}: cannot read {name}: {e} (is this a host-sim output directory?)",
+            dir.display()
+        ))
+    })
+}
+
+/// The task bundle (`task.toml` + `robot.urdf`) of output directory `dir`, read as
+/// [`write_bundle`] wrote it; a missing directory is named as such.
+pub fn read_bundle(dir: &std::path::Path) -> Result<LoadedTask, CliError> {
+    if !dir.is_dir() {
+        return Err(CliError::input(format!(
+            "{}: no such directory (give the --out directory of plan or rollout)",
+            dir.display()
+        )));
+    }
+    let task_text = read_output_file(dir, taskfile::BUNDLE_TASK)?;
+    let urdf_text = read_output_file(dir, taskfile::BUNDLE_URDF)?;
+    taskfile::from_texts(&dir.join(taskfile::BUNDLE_TASK), &task_text, &urdf_text)
+}
+
 /// What a plan adds to the figures of its rollout.
 pub struct PlanFigures {
     /// The best f after each rollout.

@@ -20,10 +20,10 @@
 //! centre-of-mass conservation); the truth model's base attitude (~1e-3°) is drawn as a
 //! magnified triad at the base centre of mass, its true value printed beside it.
 
-use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
+use crate::artifacts::{Summary, TRUTH_SUBSTEPS, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
 use crate::output::{read_trajectory_csv, write_atomic};
-use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
+use crate::taskfile::LoadedTask;
 use crate::with_dims;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
 use reactionless::{Frames, IDENTITY_WXYZ, Sink, Task, TruthModel};
@@ -150,30 +150,13 @@ fn magnification(max_deg: f64) -> f64 {
     (mantissa * decade).max(1.0)
 }
 
-fn read(dir: &Path, name: &str) -> Result<String, CliError> {
-    std::fs::read_to_string(dir.join(name)).map_err(|e| {
-        CliError::input(format!(
-            "{}: cannot read {name}: {e} (give the --out directory of plan or rollout)",
-            dir.display()
-        ))
-    })
-}
-
 /// The page data of output directory `dir` (see the module doc); the page names the
 /// directory `shown` (plan and rollout write into a temporary directory first).
 pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
-    if !dir.is_dir() {
-        return Err(CliError::input(format!(
-            "{}: no such directory (give the --out directory of plan or rollout)",
-            dir.display()
-        )));
-    }
-    let task_text = read(dir, BUNDLE_TASK)?;
-    let urdf_text = read(dir, BUNDLE_URDF)?;
-    let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
-    let summary: Summary = serde_json::from_str(&read(dir, "summary.json")?)
+    let lt = read_bundle(dir)?;
+    let summary: Summary = serde_json::from_str(&read_output_file(dir, "summary.json")?)
         .or_input(|| format!("{}: summary.json", dir.display()))?;
-    let csv = read(dir, "trajectory.csv")?;
+    let csv = read_output_file(dir, "trajectory.csv")?;
     with_dims!(lt.chain.dof(), data_n, &lt, dir, shown, &summary, &csv)
 }
 

@@ -21,11 +21,11 @@
 //! cannot be read as a host-sim output.
 
 use crate::args::parse_eta;
-use crate::artifacts::{Summary, TRUTH_SUBSTEPS};
+use crate::artifacts::{Summary, TRUTH_SUBSTEPS, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
 use crate::output::read_trajectory_csv;
 use crate::retiming::{self, RetimeSummary};
-use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
+use crate::taskfile::LoadedTask;
 use crate::with_dims;
 use reactionless::integrator::euler_step;
 use reactionless::retime::Setpoint;
@@ -71,15 +71,6 @@ fn line(check: &str, value: String, limit: String, pass: bool) -> Line {
     }
 }
 
-fn read(dir: &Path, name: &str) -> Result<String, CliError> {
-    std::fs::read_to_string(dir.join(name)).map_err(|e| {
-        CliError::input(format!(
-            "{}: cannot read {name}: {e} (is this a host-sim output directory?)",
-            dir.display()
-        ))
-    })
-}
-
 /// Prints the table of `dir`'s checks; fails with exit code 1 if a check fails.
 pub fn run(dir: &Path) -> Result<(), CliError> {
     let lines = verify(dir)?;
@@ -107,17 +98,9 @@ pub fn run(dir: &Path) -> Result<(), CliError> {
 
 /// All checks of `dir`.
 pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
-    if !dir.is_dir() {
-        return Err(CliError::input(format!(
-            "{}: no such directory (give the --out directory of plan or rollout)",
-            dir.display()
-        )));
-    }
-    let task_text = read(dir, BUNDLE_TASK)?;
-    let urdf_text = read(dir, BUNDLE_URDF)?;
-    let lt = taskfile::from_texts(&dir.join(BUNDLE_TASK), &task_text, &urdf_text)?;
-    let summary_text = read(dir, "summary.json")?;
-    let csv = read(dir, "trajectory.csv")?;
+    let lt = read_bundle(dir)?;
+    let summary_text = read_output_file(dir, "summary.json")?;
+    let csv = read_output_file(dir, "trajectory.csv")?;
     if summary_text.contains("\"original_duration_s\"") {
         let summary: RetimeSummary = serde_json::from_str(&summary_text)
             .or_input(|| format!("{}: summary.json", dir.display()))?;

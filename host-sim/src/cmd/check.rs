@@ -292,19 +292,10 @@ fn verify_retimed<const N: usize, const K: usize>(
             })
             .collect::<Vec<_>>(),
     ));
-    let ends_zero = match (written.first(), written.last()) {
-        (Some(a), Some(b)) => a.qd.iter().chain(&b.qd).all(|v| *v == 0.0),
-        _ => false,
-    };
-    lines.push(line(
+    lines.push(rest_line(
         "qd = 0 at both ends",
-        if ends_zero {
-            "exactly".into()
-        } else {
-            "not zero".into()
-        },
-        "= 0".into(),
-        ends_zero,
+        written.first().map(|s| &s.qd[..]),
+        written.last().map(|s| &s.qd[..]),
     ));
     let end_diff = written.last().map_or(f64::INFINITY, |s| {
         s.q.iter()
@@ -521,12 +512,21 @@ fn joint_rates<const N: usize>(lt: &LoadedTask, written: &[Sample<N>]) -> Line {
 
 /// q̇ = 0 exactly at the first and the last sample.
 fn rest_at_both_ends<const N: usize>(written: &[Sample<N>]) -> Line {
-    let ends_zero = match (written.first(), written.last()) {
-        (Some(a), Some(b)) => a.qd.iter().chain(&b.qd).all(|v| *v == 0.0),
+    rest_line(
+        "qd = 0 at t = 0 and t_f",
+        written.first().map(|s| &s.qd[..]),
+        written.last().map(|s| &s.qd[..]),
+    )
+}
+
+/// `q̇ = 0` exactly in the first and last rows (`None`: no rows).
+fn rest_line(name: &str, first: Option<&[f64]>, last: Option<&[f64]>) -> Line {
+    let ends_zero = match (first, last) {
+        (Some(a), Some(b)) => a.iter().chain(b).all(|v| *v == 0.0),
         _ => false,
     };
     line(
-        "qd = 0 at t = 0 and t_f",
+        name,
         if ends_zero {
             "exactly".into()
         } else {

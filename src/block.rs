@@ -29,7 +29,11 @@
 //! | 4 + 8 + 4 | refine flag (u32, 0 or 1), refine tolerance, refine max rollouts (u32) |
 //! | 4 | frame budget (u32, integration steps per call of `step`) |
 //! | 4 + 4 + 4 | strategy (u32: 0 multistart, 1 cpso), max_rollouts (u32), refine_against (u32: 0 planner, 1 truth) |
+//! | 4 + 8 + N·8 | only with magic `RLTASK03`: re-timing grid (u32), margin, `q̈max` per joint (rad/s²) |
 //! | 4 | CRC-32 of everything above |
+//!
+//! A block without re-timing settings is written with magic `RLTASK02` and is byte for byte
+//! what earlier versions wrote; [`decode`] reads both.
 
 use crate::config::{PlannerConfig, RefineAgainst, StagnationConfig, Strategy};
 use crate::error::{BlockFault, Error};
@@ -40,6 +44,8 @@ use crate::trajectory::Motion;
 
 /// The block's magic bytes (`01` had no strategy, budget or refinement target).
 pub const MAGIC: [u8; 8] = *b"RLTASK02";
+/// The magic of a block that also carries [`RetimeSettings`].
+pub const MAGIC_RETIME: [u8; 8] = *b"RLTASK03";
 
 /// Size in bytes of a block for `n` joints.
 #[must_use]
@@ -68,6 +74,26 @@ pub const fn block_len(n: usize) -> usize {
         + 3 * 4
 }
 
+/// Size in bytes of a block for `n` joints that carries [`RetimeSettings`] (`RLTASK03`).
+#[must_use]
+pub const fn retime_block_len(n: usize) -> usize {
+    block_len(n) + 4 + 8 + n * 8
+}
+
+/// Re-timing settings a block may carry: the flight image then re-times the finished plan
+/// to minimum time ([`crate::retime`]) and streams its setpoints. Validated where they are
+/// used ([`crate::retime::Limits::new`], [`crate::retime::PathBuilder::new`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RetimeSettings<const N: usize> {
+    /// Arc-length grid points.
+    pub grid: u32,
+    /// Limit margin factor in (0, 1].
+    pub margin: f64,
+    /// Acceleration limit per joint (rad/s²); the rate limits are the robot's.
+    pub qdd_max: [f64; N],
+}
+
 /// Everything the flight image needs to plan one task.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -87,6 +113,8 @@ pub struct TaskBlock<const N: usize> {
     /// Planner settings (with the frame budget: integration steps the flight software
     /// gives the planner per frame).
     pub planner: PlannerConfig,
+    /// Re-time the plan once it is finished (`RLTASK03`), or not (`RLTASK02`).
+    pub retime: Option<RetimeSettings<N>>,
 }
 
 impl<const N: usize> TaskBlock<N> {
@@ -220,18 +248,22 @@ impl Reader<'_> {
     }
 }
 
-/// Writes `block` into `out`; returns the number of bytes written ([`block_len`]).
+/// Writes `block` into `out`; returns the number of bytes written ([`block_len`], or
+/// [`retime_block_len`] with re-timing settings).
 ///
 /// # Errors
-/// [`BlockFault::Truncated`] if `out` is shorter than [`block_len`]`(N)`.
+/// [`BlockFault::Truncated`] if `out` is shorter than that.
 pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<usize, Error> {
-    let len = block_len(N);
+    let (magic, len) = match block.retime {
+        None => (MAGIC, block_len(N)),
+        Some(_) => (MAGIC_RETIME, retime_block_len(N)),
+    };
     let mut w = Writer {
         out,
         at: 0,
         overflow: false,
     };
-    w.bytes(&MAGIC);
+    w.bytes(&magic);
     w.u32(N as u32);
     w.u32(len as u32);
     w.body(&block.robot.base);
@@ -280,6 +312,11 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
         RefineAgainst::Planner => 0,
         RefineAgainst::Truth => 1,
     });
+    if let Some(r) = &block.retime {
+        w.u32(r.grid);
+        w.f64(r.margin);
+        w.f64s(&r.qdd_max);
+    }
     let crc = crc32(w.out.get(..w.at).unwrap_or(&[]));
     w.u32(crc);
     if w.overflow || w.at != len {
@@ -294,11 +331,15 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
 /// [`Error::Block`] naming what is wrong: magic, joint count, length, checksum, truncation,
 /// or a refine flag other than 0 or 1.
 pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
-    let len = block_len(N);
     let mut r = Reader { data, at: 0 };
-    if r.take::<8>()? != MAGIC {
+    let magic = r.take::<8>()?;
+    let (len, with_retime) = if magic == MAGIC {
+        (block_len(N), false)
+    } else if magic == MAGIC_RETIME {
+        (retime_block_len(N), true)
+    } else {
         return Err(Error::Block(BlockFault::Magic));
-    }
+    };
     if r.u32()? as usize != N {
         return Err(Error::Block(BlockFault::JointCount));
     }
@@ -377,6 +418,18 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         1 => RefineAgainst::Truth,
         _ => return Err(Error::Block(BlockFault::Field)),
     };
+    let retime = if with_retime {
+        let grid = r.u32()?;
+        let margin = r.f64()?;
+        let qdd_max = r.f64s::<N>()?;
+        Some(RetimeSettings {
+            grid,
+            margin,
+            qdd_max,
+        })
+    } else {
+        None
+    };
     let refine_tolerance = match flag {
         0 => None,
         1 => Some(refine_tolerance),
@@ -417,6 +470,7 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
                 eps2,
             },
         },
+        retime,
     })
 }
 
@@ -439,6 +493,18 @@ mod tests {
             dt_s: 0.01,
             n: 1,
             planner,
+            retime: None,
+        }
+    }
+
+    fn retime_block() -> TaskBlock<7> {
+        TaskBlock {
+            retime: Some(RetimeSettings {
+                grid: 2000,
+                margin: 0.95,
+                qdd_max: [5f64.to_radians(); 7],
+            }),
+            ..block()
         }
     }
 
@@ -458,6 +524,33 @@ mod tests {
         let len = encode(&block(), &mut buf).unwrap();
         assert_eq!(len, block_len(7));
         assert_eq!(decode::<7>(&buf[..len]).unwrap(), block());
+    }
+
+    /// A block with re-timing settings is written as `RLTASK03`, `retime_block_len(7)`
+    /// bytes, decodes to itself exactly, and every single-byte corruption of it is caught;
+    /// without them the bytes are those of `RLTASK02`.
+    /// Verifies RL-BLOCK-006.
+    #[test]
+    fn retime_settings_roundtrip_and_are_checked() {
+        let mut buf = [0u8; 4096];
+        let len = encode(&retime_block(), &mut buf).unwrap();
+        assert_eq!(len, retime_block_len(7));
+        assert_eq!(&buf[..8], &MAGIC_RETIME);
+        assert_eq!(decode::<7>(&buf[..len]).unwrap(), retime_block());
+        for i in 0..len {
+            let mut bad = buf;
+            bad[i] ^= 0x10;
+            assert!(decode::<7>(&bad[..len]).is_err(), "flip at byte {i}");
+        }
+        assert_eq!(
+            decode::<7>(&buf[..len - 1]),
+            Err(Error::Block(BlockFault::Truncated))
+        );
+        let mut plain = [0u8; 4096];
+        let n = encode(&block(), &mut plain).unwrap();
+        assert_eq!(&plain[..8], &MAGIC);
+        // The shared prefix (after magic and length) is the same bytes.
+        assert_eq!(&plain[16..n - 4], &buf[16..n - 4]);
     }
 
     /// Every single-byte corruption, a wrong joint count, truncation and a short buffer are

@@ -583,6 +583,20 @@ impl Profile {
     }
 }
 
+/// `f64::clamp` without its panic (`lo > hi` or a NaN bound): the same two comparisons in
+/// the same order, so the same bits whenever `clamp` would not panic; a NaN bound leaves
+/// `v` unchanged on that side. (The flight image's link-time proof found `clamp`'s assert.)
+fn clamp(v: f64, lo: f64, hi: f64) -> f64 {
+    let mut v = v;
+    if v < lo {
+        v = lo;
+    }
+    if v > hi {
+        v = hi;
+    }
+    v
+}
+
 /// Duration of segment `i` (s): `2Δ/(√x_i + √x_{i+1})`.
 fn segment_time(ds: f64, xa: f64, xb: f64) -> f64 {
     2.0 * ds / (libm::sqrt(xa) + libm::sqrt(xb))
@@ -649,7 +663,7 @@ pub fn solve<const N: usize>(
         at = following;
         let x_next_max = grid.get((i + 1) as usize).map_or(0.0, |g| g.x);
         let u = greedy_u(&r, ds, x, x_next_max);
-        let next = (x + 2.0 * ds * u).clamp(0.0, x_next_max);
+        let next = clamp(x + 2.0 * ds * u, 0.0, x_next_max);
         let next = if i + 1 == m - 1 { 0.0 } else { next };
         if (next.is_nan() || next <= 0.0) && i + 1 < m - 1 {
             return Err(Error::RetimeStalled { point: i + 1 });
@@ -787,12 +801,12 @@ impl Stream {
         let (xa, xb) = (x_at(i), x_at(i + 1));
         let u = (xb - xa) / (2.0 * ds);
         let dur = segment_time(ds, xa, xb);
-        let local = (tau - self.seg_t0).clamp(0.0, dur);
+        let local = clamp(tau - self.seg_t0, 0.0, dur);
         let sa = libm::sqrt(xa);
         let (sigma, sdot) = if last {
             (1.0, 0.0)
         } else {
-            let s = (sa * local + 0.5 * u * local * local).clamp(0.0, ds);
+            let s = clamp(sa * local + 0.5 * u * local * local, 0.0, ds);
             (s / ds, (sa + u * local).max(0.0))
         };
         let a1 = derivatives(grid, &path, i);

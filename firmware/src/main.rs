@@ -3,7 +3,10 @@
 //!
 //! Thin on purpose: every computation is the core's; this file only wires the task block,
 //! the frame loop (an embedded-hal "planner busy" LED around each frame, a delay between
-//! frames), the measurement markers and the report.
+//! frames), the measurement markers and the report. A block with re-timing settings
+//! (`RLTASK03`) also has the finished plan re-timed to minimum time and its setpoints
+//! streamed (`reactionless::retime`), in a statically allocated grid of
+//! [`RETIME_GRID_CAPACITY`] points.
 //!
 //! Markers: the `rl_mark_*` functions do nothing but a distinct store; host-sim reads their
 //! addresses from the ELF and QEMU's instruction-counting plugin logs the instruction count
@@ -19,7 +22,8 @@ use cortex_m as _;
 use cortex_m_rt::entry;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::OutputPin;
-use reactionless::block::decode;
+use reactionless::block::{RetimeSettings, decode};
+use reactionless::retime::{self, GridPoint, Limits, Stream};
 use reactionless::{Error, Plan, Planner, Progress, Rollout, Status, Task, TrajectoryDigest};
 
 /// The flight robot's joint count and null-space dimension.
@@ -27,6 +31,9 @@ const N: usize = 7;
 const K: usize = N - 3;
 /// Swarm capacity of the flight image.
 const P: usize = 64;
+/// Re-timing grid capacity (points): the 3,000-point grid of the acceptance figures,
+/// `64 × 3000 = 192,000` bytes of static RAM for `N = 7`.
+const RETIME_GRID_CAPACITY: usize = 3000;
 
 macro_rules! marker {
     ($name:ident, $id:expr) => {
@@ -47,6 +54,10 @@ marker!(rl_mark_rollout_begin, 3);
 marker!(rl_mark_rollout_end, 4);
 marker!(rl_mark_step_begin, 5);
 marker!(rl_mark_step_end, 6);
+marker!(rl_mark_retime_begin, 7);
+marker!(rl_mark_retime_end, 8);
+marker!(rl_mark_stream_begin, 9);
+marker!(rl_mark_stream_end, 10);
 
 /// The statically allocated planner, handed out once.
 fn planner_slot() -> Option<&'static mut Planner<N, K, P>> {
@@ -61,6 +72,19 @@ fn planner_slot() -> Option<&'static mut Planner<N, K, P>> {
     Some(unsafe { &mut *core::ptr::addr_of_mut!(PLANNER) })
 }
 
+/// The statically allocated re-timing grid, handed out once.
+fn grid_slot() -> Option<&'static mut [GridPoint<N>; RETIME_GRID_CAPACITY]> {
+    static mut GRID: [GridPoint<N>; RETIME_GRID_CAPACITY] = [GridPoint::ZERO; RETIME_GRID_CAPACITY];
+    static TAKEN: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+    if TAKEN.swap(true, core::sync::atomic::Ordering::Relaxed) {
+        return None;
+    }
+    // SAFETY: TAKEN makes this the only reference ever created to GRID (single core, no
+    // interrupts touch it).
+    #[allow(unsafe_code)]
+    Some(unsafe { &mut *core::ptr::addr_of_mut!(GRID) })
+}
+
 /// The integration step timed on its own (inside the plan's rollout).
 const TIMED_STEP: u32 = 1500;
 
@@ -68,10 +92,11 @@ const TIMED_STEP: u32 = 1500;
 fn main() -> ! {
     defmt::println!("reactionless firmware {=str}", env!("CARGO_PKG_VERSION"));
     defmt::println!(
-        "SIZES planner={=usize} task={=usize} rollout={=usize}",
+        "SIZES planner={=usize} task={=usize} rollout={=usize} grid={=usize}",
         core::mem::size_of::<Planner<N, K, P>>(),
         core::mem::size_of::<reactionless::Task<N, K>>(),
-        core::mem::size_of::<Rollout<N, K>>()
+        core::mem::size_of::<Rollout<N, K>>(),
+        core::mem::size_of::<[GridPoint<N>; RETIME_GRID_CAPACITY]>()
     );
     #[cfg(feature = "panic-canary")]
     canary();
@@ -90,19 +115,59 @@ fn main() -> ! {
 
 fn run() -> Result<(), Error> {
     let planner = planner_slot().ok_or(Error::NotInitialized)?;
-    let frame_budget = load(planner)?;
+    let (frame_budget, retime) = load(planner)?;
     defmt::println!("PLAN frame_budget={=u32}", frame_budget);
     let (plan, frames) = plan(planner, frame_budget)?;
-    measure(planner.task(), &plan, frames)
+    measure(planner.task(), &plan, frames)?;
+    match retime {
+        Some(settings) => retime_and_stream(planner.task(), &plan.eta, &settings),
+        None => Ok(()),
+    }
 }
 
 /// Decodes the task block and gives the planner its task, in place. Its own frame: the
 /// block, the robot and the task are dropped before planning starts.
 #[inline(never)]
-fn load(planner: &mut Planner<N, K, P>) -> Result<u32, Error> {
+fn load(planner: &mut Planner<N, K, P>) -> Result<(u32, Option<RetimeSettings<N>>), Error> {
     let block = decode::<N>(task_block())?;
     block.load_into(planner)?;
-    Ok(block.planner.frame_budget)
+    Ok((block.planner.frame_budget, block.retime))
+}
+
+/// Re-times the plan's path to minimum time in the static grid (timed: the path's two
+/// rollouts and the solve), then streams every setpoint into a digest (timed), and reports.
+#[inline(never)]
+fn retime_and_stream(
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    settings: &RetimeSettings<N>,
+) -> Result<(), Error> {
+    let grid = grid_slot().ok_or(Error::NotInitialized)?;
+    let qd_max = task.robot().desc().joints.map(|j| j.velocity);
+    let limits = Limits::new(qd_max, settings.qdd_max, settings.margin)?;
+    rl_mark_retime_begin();
+    let path = retime::path_of_rollout(task, eta, grid, settings.grid)?;
+    let profile = retime::solve(grid, &path, &limits)?;
+    rl_mark_retime_end();
+    let mut stream = Stream::new(&profile, task.motion().dt())?;
+    let mut digest = TrajectoryDigest::new();
+    let mut setpoints: u32 = 0;
+    rl_mark_stream_begin();
+    // Bounded: a stream yields steps + 1 setpoints, steps ≤ MAX_STEPS.
+    while let Some(sp) = stream.next(grid) {
+        sp.digest(&mut digest);
+        setpoints += 1;
+    }
+    rl_mark_stream_end();
+    defmt::println!(
+        "RETIME grid={=u32} steps={=u32} optimal={=u64:#018x} setpoints={=u32} digest={=u64:#018x}",
+        settings.grid,
+        stream.steps(),
+        profile.duration().to_bits(),
+        setpoints,
+        digest.value()
+    );
+    Ok(())
 }
 
 /// Plans in frames: the "planner busy" LED is on while the planner runs, a short pause

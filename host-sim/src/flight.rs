@@ -1,19 +1,64 @@
 //! What the flight image and C clients load: the task block of a task file, for the flight
 //! robot (`reactionless::block`, CRC-32). `target` hands it to QEMU, `block` writes it to a
-//! file for C clients (`reactionless-ffi`'s `rl_planner_load_block`).
+//! file for C clients (`reactionless-ffi`'s `rl_planner_load_block`). With re-timing
+//! settings ([`retime_settings`]) the block is `RLTASK03` and the image also re-times the
+//! plan.
 
 use crate::error::{CliError, Context};
 use crate::taskfile::{LoadedTask, Overrides};
 use reactionless::Pose;
-use reactionless::block::{TaskBlock, block_len, encode};
+use reactionless::block::{RetimeSettings, TaskBlock, encode, retime_block_len};
 
 /// The flight robot's joint count (the image is built for it).
 pub const FLIGHT_N: usize = 7;
 /// Swarm capacity of the flight image.
 pub const FLIGHT_P: usize = 64;
+/// Re-timing grid capacity of the flight image (points; `RETIME_GRID_CAPACITY` in
+/// firmware/src/main.rs).
+pub const FLIGHT_RETIME_GRID: u32 = 3000;
 
 /// The task block of a task file, for the flight robot.
 pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, CliError> {
+    task_block_retimed(lt, overrides, None)
+}
+
+/// The re-timing settings of a task file for the flight robot: `[limits] qdd_max_deg_s2`
+/// (or `accel_deg_s2` for every joint) in rad/s², `[retime] grid` and `margin`.
+pub fn retime_settings(
+    lt: &LoadedTask,
+    accel_deg_s2: Option<f64>,
+) -> Result<RetimeSettings<FLIGHT_N>, CliError> {
+    let qdd = lt.qdd_max_deg::<FLIGHT_N>(accel_deg_s2)?.ok_or_else(|| {
+        CliError::input(format!(
+            "{}: --retime needs acceleration limits: give --accel-deg-s2 or set [limits] qdd_max_deg_s2",
+            lt.path.display()
+        ))
+    })?;
+    let grid = lt.file.retime.grid;
+    if grid > FLIGHT_RETIME_GRID {
+        return Err(CliError::input(format!(
+            "{}: [retime] grid = {grid}: the flight image holds at most {FLIGHT_RETIME_GRID} points",
+            lt.path.display()
+        )));
+    }
+    let settings = RetimeSettings {
+        grid,
+        margin: lt.file.retime.margin,
+        qdd_max: qdd.map(f64::to_radians),
+    };
+    // Validate what the image will validate, with the host's messages.
+    let qd = lt.chain.desc::<FLIGHT_N>()?.joints.map(|j| j.velocity);
+    reactionless::retime::Limits::new(qd, settings.qdd_max, settings.margin)
+        .map_err(|e| CliError::input(format!("{}: re-timing limits: {e}", lt.path.display())))?;
+    Ok(settings)
+}
+
+/// The task block of a task file, for the flight robot, with re-timing settings or not.
+pub fn task_block_retimed(
+    lt: &LoadedTask,
+    overrides: &Overrides,
+    retime: Option<RetimeSettings<FLIGHT_N>>,
+) -> Result<Vec<u8>, CliError> {
     if lt.chain.dof() != FLIGHT_N {
         return Err(CliError::input(format!(
             "{}: the flight image is built for {FLIGHT_N} joints; this robot has {}",
@@ -35,8 +80,10 @@ pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, Cli
         dt_s: lt.file.motion.dt_s,
         n: lt.file.motion.n,
         planner,
+        retime,
     };
-    let mut buf = vec![0u8; block_len(7)];
-    encode(&block, &mut buf).or_internal(|| "task block")?;
+    let mut buf = vec![0u8; retime_block_len(7)];
+    let len = encode(&block, &mut buf).or_internal(|| "task block")?;
+    buf.truncate(len);
     Ok(buf)
 }

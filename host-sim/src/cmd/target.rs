@@ -13,13 +13,18 @@
 //!    trajectory digest bit for bit;
 //! 6. report instructions per integration step, per rollout and the most per `step` call
 //!    over the whole plan at the task's frame budget, the painted-stack high-water mark and
-//!    flash and static RAM from the ELF, and check them against the budgets.
+//!    flash and static RAM from the ELF, and check them against the budgets;
+//! 7. with `--retime`: the image also re-times the plan to minimum time (block `RLTASK03`)
+//!    and streams its setpoints; their count, the optimal duration's bits and the setpoint
+//!    digest are compared with the host's re-timing (`host-sim retime`), and the
+//!    re-timing's instructions and static RAM are checked against their budgets.
 //!
 //! Exit 0 only when bit-identical and within budgets; 1 otherwise; 2 for bad input.
 
 use crate::args::PlanArgs;
 use crate::error::{CliError, Context};
 pub use crate::flight::{FLIGHT_N, FLIGHT_P, task_block};
+use crate::flight::{retime_settings, task_block_retimed};
 use crate::records::{Outputs, PoseBits, bits, first_difference, outputs_of};
 use crate::taskfile;
 use object::{Object, ObjectSection, ObjectSymbol};
@@ -32,8 +37,14 @@ use std::time::Instant;
 pub const TASK_ADDR: u32 = 0x203f_0000;
 /// Stack budget (bytes).
 pub const STACK_BUDGET: u64 = 16 * 1024;
-/// Static RAM budget (bytes).
+/// Static RAM budget (bytes), the re-timing grid excepted.
 pub const STATIC_RAM_BUDGET: u64 = 64 * 1024;
+/// Static RAM budget of the re-timing grid (bytes): 3,000 points of 64 bytes fit.
+pub const RETIME_STATIC_RAM_BUDGET: u64 = 192 * 1024;
+/// Instruction budget of one re-timing (the path's two rollouts and the solve) at the
+/// image's largest grid, 3,000 points: 0.12 s of a 400 MHz Cortex-M7 at one instruction
+/// per cycle (measured: 37.0 M at 2,000 points, 40.0 M at 3,000 on the reference plan).
+pub const RETIME_INSTRUCTION_BUDGET: u64 = 48_000_000;
 
 /// What `target` reports.
 #[derive(Debug, Serialize, schemars::JsonSchema)]
@@ -64,6 +75,19 @@ pub struct TargetJson {
     pub static_ram_bytes: u64,
     /// `size_of::<Planner<7, 4, 64>>()` on the target (bytes), part of the static RAM.
     pub planner_bytes: u64,
+    /// Static RAM of the re-timing grid (bytes), part of `static_ram_bytes`; its budget is
+    /// separate ([`RETIME_STATIC_RAM_BUDGET`]).
+    pub retime_static_ram_bytes: u64,
+    /// With `--retime`: instructions of one re-timing on the target (path from the plan's
+    /// two rollouts, backward and forward pass).
+    pub retime_instructions: Option<u64>,
+    /// With `--retime`: instructions of streaming every setpoint into the digest.
+    pub stream_instructions: Option<u64>,
+    /// With `--retime`: the re-timed duration `K·dt` (s), on the target.
+    pub retime_duration_s: Option<f64>,
+    /// With `--retime`: the setpoint digest on the target (what `host-sim retime` writes
+    /// as `setpoint_digest`).
+    pub setpoint_digest: Option<String>,
     /// Image outputs: converged, iterations, rollouts.
     pub converged: bool,
     /// C-PSO iterations on the target.
@@ -101,13 +125,17 @@ fn build(root: &Path) -> Result<PathBuf, CliError> {
 }
 
 /// Marker addresses (Thumb bit cleared), in the plugin's index order.
-const MARKERS: [&str; 6] = [
+const MARKERS: [&str; 10] = [
     "rl_mark_call_begin",
     "rl_mark_call_end",
     "rl_mark_rollout_begin",
     "rl_mark_rollout_end",
     "rl_mark_step_begin",
     "rl_mark_step_end",
+    "rl_mark_retime_begin",
+    "rl_mark_retime_end",
+    "rl_mark_stream_begin",
+    "rl_mark_stream_end",
 ];
 
 struct Elf {
@@ -279,13 +307,18 @@ struct Instructions {
     calls: u64,
     /// The whole run, boot to exit.
     total: u64,
+    /// One re-timing (path and solve), if the image re-timed.
+    retime: Option<u64>,
+    /// Streaming every setpoint, if the image re-timed.
+    stream: Option<u64>,
 }
 
 /// Instruction figures from the plugin's log: per step, per rollout, max and mean per call.
 fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
-    let mut open: [Option<u64>; 3] = [None; 3];
+    let mut open: [Option<u64>; MARKERS.len() / 2] = [None; MARKERS.len() / 2];
     let (mut step, mut rollout, mut max_call, mut sum, mut calls, mut total) =
         (0, 0, 0, 0u64, 0u64, 0);
+    let (mut retime, mut stream) = (None, None);
     for l in log.lines() {
         let mut it = l.split_whitespace();
         let (Some(a), Some(b)) = (it.next(), it.next()) else {
@@ -302,9 +335,12 @@ fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
             .parse()
             .map_err(|_| CliError::failed(format!("plugin log: {l:?}")))?;
         let region = id / 2;
+        let slot = open
+            .get_mut(region)
+            .ok_or_else(|| CliError::failed(format!("plugin log: unknown mark {id}")))?;
         if id % 2 == 0 {
-            open[region] = Some(count);
-        } else if let Some(start) = open[region].take() {
+            *slot = Some(count);
+        } else if let Some(start) = slot.take() {
             let d = count - start;
             match region {
                 0 => {
@@ -313,7 +349,9 @@ fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
                     calls += 1;
                 }
                 1 => rollout = d,
-                _ => step = d,
+                2 => step = d,
+                3 => retime = Some(d),
+                _ => stream = Some(d),
             }
         }
     }
@@ -329,6 +367,61 @@ fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
         mean_call: sum as f64 / calls as f64,
         calls,
         total,
+        retime,
+        stream,
+    })
+}
+
+/// The image's `RETIME` line: steps, the optimal duration's bits, setpoints and digest.
+#[derive(Debug, Clone, PartialEq)]
+struct RetimeReport {
+    steps: u32,
+    optimal_bits: u64,
+    setpoints: u32,
+    digest: u64,
+}
+
+fn retime_report(lines: &[String]) -> Result<Option<RetimeReport>, CliError> {
+    let Some(r) = fields(lines, "RETIME") else {
+        return Ok(None);
+    };
+    let num = |k: &str| -> Result<u32, CliError> {
+        field(&r, k)?
+            .parse()
+            .map_err(|_| CliError::failed(format!("bad {k} in the image's RETIME line")))
+    };
+    Ok(Some(RetimeReport {
+        steps: num("steps")?,
+        optimal_bits: hex(field(&r, "optimal")?)?,
+        setpoints: num("setpoints")?,
+        digest: hex(field(&r, "digest")?)?,
+    }))
+}
+
+/// The host's re-timing of `eta` with the block's settings, as the image reports it.
+fn host_retime(
+    lt: &taskfile::LoadedTask,
+    eta: &[f64],
+    qdd_max_deg: &[f64; FLIGHT_N],
+    grid: u32,
+    margin: f64,
+) -> Result<RetimeReport, CliError> {
+    let task = lt.task::<7, 4>()?;
+    let mut e = [[0.0; 2]; 4];
+    for (slot, v) in e.iter_mut().flatten().zip(eta) {
+        *slot = *v;
+    }
+    let r = crate::retiming::compute(&task, &e, qdd_max_deg, grid, margin)?;
+    let last = r
+        .setpoints
+        .last()
+        .ok_or_else(|| CliError::internal("no setpoints"))?;
+    let digest = crate::retiming::digest(&r.setpoints);
+    Ok(RetimeReport {
+        steps: last.step,
+        optimal_bits: r.optimal_duration_s.to_bits(),
+        setpoints: r.setpoints.len() as u32,
+        digest: u64::from_str_radix(&digest, 16).or_internal(|| "setpoint digest")?,
     })
 }
 
@@ -348,6 +441,14 @@ pub struct Args {
     /// Give up on the emulation after this many seconds.
     #[arg(long, default_value_t = 1800)]
     timeout_s: u64,
+    /// Also re-time the finished plan to minimum time on the target and stream its
+    /// setpoints, under `[limits] qdd_max_deg_s2` or `--accel-deg-s2` and `[retime]`
+    /// (grid at most 3,000 points), compared bit for bit with `host-sim retime`.
+    #[arg(long)]
+    retime: bool,
+    /// Acceleration limit of every joint for `--retime` (deg/s²).
+    #[arg(long, requires = "retime")]
+    accel_deg_s2: Option<f64>,
     #[command(flatten)]
     planning: PlanArgs,
 }
@@ -363,7 +464,12 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
     let (json, timeout_s) = (args.json, args.timeout_s);
     let overrides = args.planning.overrides();
     let lt = taskfile::load(&args.task)?;
-    let block = task_block(&lt, &overrides)?;
+    let settings = if args.retime {
+        Some(retime_settings(&lt, args.accel_deg_s2)?)
+    } else {
+        None
+    };
+    let block = task_block_retimed(&lt, &overrides, settings)?;
     let root = repo_root();
     let elf_path = if build_first {
         build(&root)?
@@ -428,13 +534,17 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         )));
     }
     let (on_target, stack, frames) = target_outputs(&lines)?;
-    let planner_bytes = fields(&lines, "SIZES")
-        .and_then(|f| {
-            f.iter()
-                .find(|(k, _)| *k == "planner")
-                .and_then(|(_, v)| v.parse().ok())
-        })
-        .ok_or_else(|| CliError::failed("the image reported no sizes"))?;
+    let size = |key: &str| -> Result<u64, CliError> {
+        fields(&lines, "SIZES")
+            .and_then(|f| {
+                f.iter()
+                    .find(|(k, _)| *k == key)
+                    .and_then(|(_, v)| v.parse().ok())
+            })
+            .ok_or_else(|| CliError::failed(format!("the image reported no {key} size")))
+    };
+    let planner_bytes = size("planner")?;
+    let grid_bytes = size("grid")?;
     let log = std::fs::read_to_string(&log_path).or_failed(|| "plugin log")?;
     let Instructions {
         step,
@@ -443,13 +553,36 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         mean_call,
         calls,
         total,
+        retime,
+        stream,
     } = instruction_stats(&log)?;
     // The same task on the host (its capacity differs from the image's 64: results do not
     // depend on it).
     let on_host = crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
-    let diff = first_difference(&on_host, &on_target)
+    let mut diff = first_difference(&on_host, &on_target)
         .map(|d| format!("{}: host {}, target {}", d.what, d.first, d.second));
-    let within = stack <= STACK_BUDGET && elf.static_ram <= STATIC_RAM_BUDGET;
+    let retimed = retime_report(&lines)?;
+    if let Some(s) = &settings {
+        let on_target = retimed
+            .clone()
+            .ok_or_else(|| CliError::failed("the image did not report its re-timing"))?;
+        // The limits as the task gives them (deg/s²): the host converts them as the block did.
+        let qdd_deg = lt
+            .qdd_max_deg::<FLIGHT_N>(args.accel_deg_s2)?
+            .ok_or_else(|| CliError::internal("re-timing settings without limits"))?;
+        let on_host = host_retime(&lt, &on_host.eta, &qdd_deg, s.grid, s.margin)?;
+        if diff.is_none() && on_host != on_target {
+            diff = Some(format!("re-timing: host {on_host:?}, target {on_target:?}"));
+        }
+        if retime.is_none() || stream.is_none() {
+            return Err(CliError::failed("the plugin logged no re-timing markers"));
+        }
+    }
+    let within_retime = retime.is_none_or(|r| r <= RETIME_INSTRUCTION_BUDGET)
+        && grid_bytes <= RETIME_STATIC_RAM_BUDGET;
+    let within = stack <= STACK_BUDGET
+        && elf.static_ram.saturating_sub(grid_bytes) <= STATIC_RAM_BUDGET
+        && within_retime;
     let report = TargetJson {
         bit_identical: diff.is_none(),
         first_difference: diff.clone(),
@@ -464,6 +597,13 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         flash_bytes: elf.flash,
         static_ram_bytes: elf.static_ram,
         planner_bytes,
+        retime_static_ram_bytes: grid_bytes,
+        retime_instructions: retime,
+        stream_instructions: stream,
+        retime_duration_s: retimed
+            .as_ref()
+            .map(|r| f64::from(r.steps) * lt.file.motion.dt_s),
+        setpoint_digest: retimed.as_ref().map(|r| format!("{:016x}", r.digest)),
         converged: on_target.status == "converged",
         iterations: on_target.iterations,
         rollouts: on_target.rollouts,
@@ -495,9 +635,16 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         );
         println!("stack high-water           {stack} bytes (budget {STACK_BUDGET})");
         println!(
-            "static RAM                 {} bytes (budget {STATIC_RAM_BUDGET}; planner {})",
-            elf.static_ram, report.planner_bytes
+            "static RAM                 {} bytes: {} re-timing grid (budget {RETIME_STATIC_RAM_BUDGET}), the rest within {STATIC_RAM_BUDGET} (planner {})",
+            elf.static_ram, grid_bytes, report.planner_bytes
         );
+        if let (Some(r), Some(s), Some(d)) = (retime, stream, &retimed) {
+            println!(
+                "re-timing                  {r} instructions (budget {RETIME_INSTRUCTION_BUDGET}), streaming {s} for {} setpoints; {:.2} s",
+                d.setpoints,
+                f64::from(d.steps) * lt.file.motion.dt_s
+            );
+        }
         println!("flash                      {} bytes", elf.flash);
         println!(
             "plan on target             {} in {} iterations, {} rollouts; emulation {qemu_seconds:.1} s",
@@ -507,7 +654,7 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
     match (diff, within) {
         (Some(d), _) => Err(CliError::failed(format!("target and host differ: {d}"))),
         (None, false) => Err(CliError::failed(
-            "the image exceeds its stack or static RAM budget",
+            "the image exceeds its stack, static RAM or re-timing budget",
         )),
         (None, true) => Ok(()),
     }

@@ -553,6 +553,7 @@ fn equal_spans(a: Interval, b: Interval) -> Result<(Interval, Interval), String>
 }
 
 /// Scientific tick labels for tiny or huge values, plain ones otherwise.
+#[allow(clippy::disallowed_methods)] // constant bounds 1 <= 6: clamp cannot panic here
 fn value_ticks((lo, hi): (f64, f64)) -> Ticks {
     let mag = lo.abs().max(hi.abs());
     if mag > 0.0 && !(1e-2..1e5).contains(&mag) {

@@ -23,10 +23,11 @@ pub fn task_block(lt: &LoadedTask, overrides: &Overrides) -> Result<Vec<u8>, Cli
 }
 
 /// The re-timing settings of a task file for the flight robot: `[limits] qdd_max_deg_s2`
-/// (or `accel_deg_s2` for every joint) in rad/s², `[retime] grid` and `margin`.
+/// (or `accel_deg_s2` for every joint) in rad/s², `[retime] grid` (or `grid`) and `margin`.
 pub fn retime_settings(
     lt: &LoadedTask,
     accel_deg_s2: Option<f64>,
+    grid: Option<u32>,
 ) -> Result<RetimeSettings<FLIGHT_N>, CliError> {
     let qdd = lt.qdd_max_deg::<FLIGHT_N>(accel_deg_s2)?.ok_or_else(|| {
         CliError::input(format!(
@@ -34,11 +35,16 @@ pub fn retime_settings(
             lt.path.display()
         ))
     })?;
-    let grid = lt.file.retime.grid;
+    let from_flag = grid.is_some();
+    let grid = grid.unwrap_or(lt.file.retime.grid);
     if grid > FLIGHT_RETIME_GRID {
+        let what = if from_flag {
+            format!("--grid {grid}")
+        } else {
+            format!("{}: [retime] grid = {grid}", lt.path.display())
+        };
         return Err(CliError::input(format!(
-            "{}: [retime] grid = {grid}: the flight image holds at most {FLIGHT_RETIME_GRID} points",
-            lt.path.display()
+            "{what}: the flight image holds at most {FLIGHT_RETIME_GRID} points"
         )));
     }
     let settings = RetimeSettings {

@@ -449,6 +449,10 @@ pub struct Args {
     /// Acceleration limit of every joint for `--retime` (deg/s²).
     #[arg(long, requires = "retime")]
     accel_deg_s2: Option<f64>,
+    /// Arc-length grid points for `--retime` (at most 3,000); default: the task's
+    /// `[retime] grid` (2000).
+    #[arg(long, requires = "retime")]
+    grid: Option<u32>,
     #[command(flatten)]
     planning: PlanArgs,
 }
@@ -465,7 +469,7 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
     let overrides = args.planning.overrides();
     let lt = taskfile::load(&args.task)?;
     let settings = if args.retime {
-        Some(retime_settings(&lt, args.accel_deg_s2)?)
+        Some(retime_settings(&lt, args.accel_deg_s2, args.grid)?)
     } else {
         None
     };

@@ -127,4 +127,16 @@ impl<const N: usize, const K: usize, const P: usize> Optimizer<N, K> for Cpso<K,
     fn progress(&self) -> (u32, u32) {
         (self.iteration, self.particle as u32)
     }
+
+    /// The rest of the generation: particle `i + j`, with its personal best's Φ as the cap
+    /// (which only its own evaluation changes).
+    fn ahead(&self, j: usize) -> Option<Candidate<K>> {
+        let i = self.particle.checked_add(j)?;
+        if i >= self.swarm.count() {
+            return None;
+        }
+        self.swarm
+            .particle(i)
+            .map(|p| Candidate::plain(p.position, p.best_cost.phi))
+    }
 }

@@ -10,6 +10,8 @@
 //! Every transcendental function comes from `libm`, so results are bit-identical on every
 //! target. Angles are radians, lengths metres.
 
+use crate::lanes::{Mask, Real};
+use core::ops::Mul;
 use nalgebra::{Matrix3, Vector3};
 
 /// 3-vector of `f64` (metres, radians or radians per second as documented at each use).
@@ -90,13 +92,35 @@ pub(crate) fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
     )
 }
 
-/// `a·v` for a 3×3 matrix, written out.
+/// `a·v` for a 3×3 matrix (any [`Real`]) and a vector of `f64`, written out.
 #[inline(always)]
-pub(crate) fn mat_vec(a: &Mat3, v: &Vec3) -> Vec3 {
-    Vec3::new(
+pub(crate) fn mat_vec<T: Real>(a: &Matrix3<T>, v: &Vec3) -> Vector3<T> {
+    Vector3::new(
         a.m11 * v.x + a.m12 * v.y + a.m13 * v.z,
         a.m21 * v.x + a.m22 * v.y + a.m23 * v.z,
         a.m31 * v.x + a.m32 * v.y + a.m33 * v.z,
+    )
+}
+
+/// `v` in every lane.
+#[inline(always)]
+pub(crate) fn splat3<T: Real>(v: &Vec3) -> Vector3<T> {
+    Vector3::new(T::splat(v.x), T::splat(v.y), T::splat(v.z))
+}
+
+/// `m` in every lane.
+#[inline(always)]
+pub(crate) fn splat33<T: Real>(m: &Mat3) -> Matrix3<T> {
+    Matrix3::new(
+        T::splat(m.m11),
+        T::splat(m.m12),
+        T::splat(m.m13),
+        T::splat(m.m21),
+        T::splat(m.m22),
+        T::splat(m.m23),
+        T::splat(m.m31),
+        T::splat(m.m32),
+        T::splat(m.m33),
     )
 }
 
@@ -118,8 +142,8 @@ pub fn zxz_angles(m: &Mat3) -> (f64, f64, f64) {
 
 /// Right-multiplies `r` by `Rx(b)` given `(sin b, cos b)`: only the last two columns change.
 #[inline(always)]
-pub(crate) fn mul_rx(r: &Mat3, s: f64, c: f64) -> Mat3 {
-    Mat3::new(
+pub(crate) fn mul_rx<T: Real + Mul<S, Output = T>, S: Copy>(r: &Matrix3<T>, s: S, c: S) -> Matrix3<T> {
+    Matrix3::new(
         r.m11,
         r.m12 * c + r.m13 * s,
         r.m13 * c - r.m12 * s,
@@ -147,9 +171,9 @@ pub fn rot_x(theta: f64) -> Mat3 {
 }
 
 /// Right-multiplies `r` by `Rz(θ)` given `(sin θ, cos θ)`: only the first two columns change.
-#[inline]
-pub(crate) fn mul_rz(r: &Mat3, s: f64, c: f64) -> Mat3 {
-    Mat3::new(
+#[inline(always)]
+pub(crate) fn mul_rz<T: Real>(r: &Matrix3<T>, s: T, c: T) -> Matrix3<T> {
+    Matrix3::new(
         r.m11 * c + r.m12 * s,
         r.m12 * c - r.m11 * s,
         r.m13,
@@ -382,35 +406,26 @@ impl PoseError {
     }
 }
 
-/// Symmetric 3×3 matrix stored as its six distinct entries.
+/// Symmetric 3×3 matrix stored as its six distinct entries (`f64`, or [`Real`] lanes in
+/// the rollout's hot path).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Sym3 {
+pub struct Sym3<T = f64> {
     /// Entry (1,1).
-    pub xx: f64,
+    pub xx: T,
     /// Entry (2,2).
-    pub yy: f64,
+    pub yy: T,
     /// Entry (3,3).
-    pub zz: f64,
+    pub zz: T,
     /// Entries (1,2) = (2,1).
-    pub xy: f64,
+    pub xy: T,
     /// Entries (1,3) = (3,1).
-    pub xz: f64,
+    pub xz: T,
     /// Entries (2,3) = (3,2).
-    pub yz: f64,
+    pub yz: T,
 }
 
 impl Sym3 {
-    /// The zero matrix.
-    pub const ZERO: Self = Self {
-        xx: 0.0,
-        yy: 0.0,
-        zz: 0.0,
-        xy: 0.0,
-        xz: 0.0,
-        yz: 0.0,
-    };
-
     /// `R·S·Rᵀ` (e.g. an inertia tensor expressed in a rotated frame).
     #[inline]
     #[must_use]
@@ -441,71 +456,6 @@ impl Sym3 {
         (l.iter().all(|v| v.is_finite()) && l11 > 0.0 && l22 > 0.0 && l33 > 0.0).then_some(l)
     }
 
-    /// `(R·L)(R·L)ᵀ = R·S·Rᵀ` for `S = L·Lᵀ` with `L` lower-triangular: a tensor rotated into
-    /// another frame at 36 multiplications instead of 45.
-    #[inline(always)]
-    #[must_use]
-    pub fn rotated_factor(r: &Mat3, l: &Mat3) -> Self {
-        // M = R·L, using L's zeros.
-        let m11 = r.m11 * l.m11 + r.m12 * l.m21 + r.m13 * l.m31;
-        let m21 = r.m21 * l.m11 + r.m22 * l.m21 + r.m23 * l.m31;
-        let m31 = r.m31 * l.m11 + r.m32 * l.m21 + r.m33 * l.m31;
-        let m12 = r.m12 * l.m22 + r.m13 * l.m32;
-        let m22 = r.m22 * l.m22 + r.m23 * l.m32;
-        let m32 = r.m32 * l.m22 + r.m33 * l.m32;
-        let m13 = r.m13 * l.m33;
-        let m23 = r.m23 * l.m33;
-        let m33 = r.m33 * l.m33;
-        Self {
-            xx: m11 * m11 + m12 * m12 + m13 * m13,
-            yy: m21 * m21 + m22 * m22 + m23 * m23,
-            zz: m31 * m31 + m32 * m32 + m33 * m33,
-            xy: m11 * m21 + m12 * m22 + m13 * m23,
-            xz: m11 * m31 + m12 * m32 + m13 * m33,
-            yz: m21 * m31 + m22 * m32 + m23 * m33,
-        }
-    }
-
-    /// Inertia of a point mass `m` (kg) at offset `d` (m): `m(|d|²I − d dᵀ)`.
-    #[inline]
-    #[must_use]
-    pub fn point_mass(m: f64, d: &Vec3) -> Self {
-        let (x, y, z) = (d.x, d.y, d.z);
-        Self {
-            xx: m * (y * y + z * z),
-            yy: m * (x * x + z * z),
-            zz: m * (x * x + y * y),
-            xy: -m * x * y,
-            xz: -m * x * z,
-            yz: -m * y * z,
-        }
-    }
-
-    /// Entry-wise sum.
-    #[inline]
-    #[must_use]
-    pub fn add(&self, o: &Self) -> Self {
-        Self {
-            xx: self.xx + o.xx,
-            yy: self.yy + o.yy,
-            zz: self.zz + o.zz,
-            xy: self.xy + o.xy,
-            xz: self.xz + o.xz,
-            yz: self.yz + o.yz,
-        }
-    }
-
-    /// `S·v`.
-    #[inline]
-    #[must_use]
-    pub fn mul_vec(&self, v: &Vec3) -> Vec3 {
-        Vec3::new(
-            self.xx * v.x + self.xy * v.y + self.xz * v.z,
-            self.xy * v.x + self.yy * v.y + self.yz * v.z,
-            self.xz * v.x + self.yz * v.y + self.zz * v.z,
-        )
-    }
-
     /// The full 3×3 matrix.
     #[must_use]
     pub fn to_matrix(&self) -> Mat3 {
@@ -527,45 +477,125 @@ impl Sym3 {
         }
     }
 
-    /// Trace.
-    #[inline]
-    #[must_use]
-    pub fn trace(&self) -> f64 {
-        self.xx + self.yy + self.zz
-    }
-
     /// `LDLᵀ` factorisation if every pivot is positive and finite, else `None`.
     #[inline]
     #[must_use]
     pub fn ldlt(&self) -> Option<Ldlt3> {
-        let d1 = self.xx;
-        if !(d1 > 0.0 && d1.is_finite()) {
-            return None;
+        let (f, ok) = self.ldlt_masked();
+        ok.then_some(f)
+    }
+}
+
+impl<T: Real> Sym3<T> {
+    /// The zero matrix.
+    pub const ZERO: Self = Self {
+        xx: T::ZERO,
+        yy: T::ZERO,
+        zz: T::ZERO,
+        xy: T::ZERO,
+        xz: T::ZERO,
+        yz: T::ZERO,
+    };
+
+    /// `(R·L)(R·L)ᵀ = R·S·Rᵀ` for `S = L·Lᵀ` with `L` lower-triangular: a tensor rotated into
+    /// another frame at 36 multiplications instead of 45.
+    #[inline(always)]
+    #[must_use]
+    pub fn rotated_factor(r: &Matrix3<T>, l: &Mat3) -> Self {
+        // M = R·L, using L's zeros.
+        let m11 = r.m11 * l.m11 + r.m12 * l.m21 + r.m13 * l.m31;
+        let m21 = r.m21 * l.m11 + r.m22 * l.m21 + r.m23 * l.m31;
+        let m31 = r.m31 * l.m11 + r.m32 * l.m21 + r.m33 * l.m31;
+        let m12 = r.m12 * l.m22 + r.m13 * l.m32;
+        let m22 = r.m22 * l.m22 + r.m23 * l.m32;
+        let m32 = r.m32 * l.m22 + r.m33 * l.m32;
+        let m13 = r.m13 * l.m33;
+        let m23 = r.m23 * l.m33;
+        let m33 = r.m33 * l.m33;
+        Self {
+            xx: m11 * m11 + m12 * m12 + m13 * m13,
+            yy: m21 * m21 + m22 * m22 + m23 * m23,
+            zz: m31 * m31 + m32 * m32 + m33 * m33,
+            xy: m11 * m21 + m12 * m22 + m13 * m23,
+            xz: m11 * m31 + m12 * m32 + m13 * m33,
+            yz: m21 * m31 + m22 * m32 + m23 * m33,
         }
+    }
+
+    /// Inertia of a point mass `m` (kg) at offset `d` (m): `m(|d|²I − d dᵀ)`.
+    #[inline(always)]
+    #[must_use]
+    pub fn point_mass(m: f64, d: &Vector3<T>) -> Self {
+        let (x, y, z) = (d.x, d.y, d.z);
+        // `m·a` written `a·m` (the same bits: IEEE multiplication commutes).
+        Self {
+            xx: (y * y + z * z) * m,
+            yy: (x * x + z * z) * m,
+            zz: (x * x + y * y) * m,
+            xy: x * -m * y,
+            xz: x * -m * z,
+            yz: y * -m * z,
+        }
+    }
+
+    /// Entry-wise sum.
+    #[inline(always)]
+    #[must_use]
+    pub fn add(&self, o: &Self) -> Self {
+        Self {
+            xx: self.xx + o.xx,
+            yy: self.yy + o.yy,
+            zz: self.zz + o.zz,
+            xy: self.xy + o.xy,
+            xz: self.xz + o.xz,
+            yz: self.yz + o.yz,
+        }
+    }
+
+    /// `S·v`.
+    #[inline(always)]
+    #[must_use]
+    pub fn mul_vec(&self, v: &Vector3<T>) -> Vector3<T> {
+        Vector3::new(
+            self.xx * v.x + self.xy * v.y + self.xz * v.z,
+            self.xy * v.x + self.yy * v.y + self.yz * v.z,
+            self.xz * v.x + self.yz * v.y + self.zz * v.z,
+        )
+    }
+
+    /// Trace.
+    #[inline(always)]
+    #[must_use]
+    pub fn trace(&self) -> T {
+        self.xx + self.yy + self.zz
+    }
+
+    /// `LDLᵀ` factorisation, and per lane whether every pivot is positive and finite (where
+    /// it is not, that lane's factors are meaningless, possibly infinite or NaN).
+    #[inline(always)]
+    #[must_use]
+    pub fn ldlt_masked(&self) -> (Ldlt3<T>, T::Mask) {
+        let pivot = |d: T| d.gt(T::ZERO).and(d.finite());
+        let d1 = self.xx;
         let l21 = self.xy / d1;
         let l31 = self.xz / d1;
         let d2 = self.yy - l21 * self.xy;
-        if !(d2 > 0.0 && d2.is_finite()) {
-            return None;
-        }
         let l32 = (self.yz - l31 * self.xy) / d2;
         let d3 = self.zz - l31 * self.xz - l32 * (self.yz - l31 * self.xy);
-        if !(d3 > 0.0 && d3.is_finite()) {
-            return None;
-        }
-        Some(Ldlt3 {
+        let f = Ldlt3 {
             l21,
             l31,
             l32,
-            inv_d: [1.0 / d1, 1.0 / d2, 1.0 / d3],
+            inv_d: [T::ONE / d1, T::ONE / d2, T::ONE / d3],
             det: d1 * d2 * d3,
-        })
+        };
+        (f, pivot(d1).and(pivot(d2)).and(pivot(d3)))
     }
 
     /// Sum of the three principal 2×2 minors (second invariant, `Σ λ_i λ_j`).
-    #[inline]
+    #[inline(always)]
     #[must_use]
-    pub fn minor_sum(&self) -> f64 {
+    pub fn minor_sum(&self) -> T {
         (self.xx * self.yy - self.xy * self.xy)
             + (self.xx * self.zz - self.xz * self.xz)
             + (self.yy * self.zz - self.yz * self.yz)
@@ -574,19 +604,19 @@ impl Sym3 {
 
 /// `LDLᵀ` factors of a symmetric positive-definite 3×3 matrix.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ldlt3 {
-    l21: f64,
-    l31: f64,
-    l32: f64,
-    inv_d: [f64; 3],
-    det: f64,
+pub struct Ldlt3<T = f64> {
+    l21: T,
+    l31: T,
+    l32: T,
+    inv_d: [T; 3],
+    det: T,
 }
 
-impl Ldlt3 {
+impl<T: Real> Ldlt3<T> {
     /// Solves `S·x = b`.
-    #[inline]
+    #[inline(always)]
     #[must_use]
-    pub fn solve(&self, b: &Vec3) -> Vec3 {
+    pub fn solve(&self, b: &Vector3<T>) -> Vector3<T> {
         let [i1, i2, i3] = self.inv_d;
         let y1 = b.x;
         let y2 = b.y - self.l21 * y1;
@@ -594,12 +624,12 @@ impl Ldlt3 {
         let x3 = y3 * i3;
         let x2 = y2 * i2 - self.l32 * x3;
         let x1 = y1 * i1 - self.l21 * x2 - self.l31 * x3;
-        Vec3::new(x1, x2, x3)
+        Vector3::new(x1, x2, x3)
     }
 
     /// Determinant (product of the pivots).
     #[must_use]
-    pub fn det(&self) -> f64 {
+    pub fn det(&self) -> T {
         self.det
     }
 }

@@ -5,7 +5,11 @@
 //! written row) and [`midpoint_substeps`] (used by [`crate::TruthModel`]). Both are the
 //! reference discretization: changing either moves every golden record.
 
-/// `q ← q + dt·q̇`, joint by joint (rad, rad/s, s): the explicit Euler step of eq. 19.
+
+use crate::lanes::Real;
+
+/// `q ← q + dt·q̇`, joint by joint (rad, rad/s, s): the explicit Euler step of eq. 19, of
+/// one rollout (`f64`) or of several side by side ([`Real`] lanes).
 ///
 /// Verifies RL-ROLL-001.
 ///
@@ -15,9 +19,11 @@
 /// assert_eq!(q, [0.5 + 0.01 * 0.1, -1.0 + 0.01 * 0.2]);
 /// ```
 #[inline(always)]
-pub fn euler_step<const N: usize>(q: &mut [f64; N], qd: &[f64; N], dt: f64) {
+pub fn euler_step<const N: usize, T: Real>(q: &mut [T; N], qd: &[T; N], dt: f64) {
     for (q, v) in q.iter_mut().zip(qd.iter()) {
-        *q += dt * v;
+        // `dt·v` written `v·dt`: the same bits (IEEE multiplication commutes), and it lets
+        // `T` be lanes of several rollouts.
+        *q += *v * dt;
     }
 }
 

@@ -53,6 +53,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod batch;
 pub mod block;
 pub mod config;
 pub mod cpso;
@@ -62,6 +63,7 @@ pub mod execute;
 pub mod geometry;
 pub mod integrator;
 pub mod kinematics;
+pub mod lanes;
 pub mod model;
 pub mod momentum;
 pub mod multistart;

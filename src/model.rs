@@ -15,6 +15,7 @@
 //! see [`crate::kinematics`].
 
 use crate::error::{Body, Error, Param};
+use crate::lanes::Real;
 use crate::geometry::{
     Mat3, Sym3, Vec3, ZERO3, ZERO33, frame_with_z, rot_z, rpy_matrix, zxz_angles,
 };
@@ -364,7 +365,14 @@ impl<const N: usize> Robot<N> {
     /// Constraint violation Φ of eq. 23 for joint extrema `q_min`, `q_max` (rad).
     #[must_use]
     pub fn violation(&self, q_min: &[f64; N], q_max: &[f64; N]) -> f64 {
-        let mut phi = 0.0;
+        self.violation_of(q_min, q_max)
+    }
+
+    /// [`Robot::violation`] of one rollout's extrema (`f64`) or of several side by side
+    /// ([`Real`] lanes): the same sum, in the same order, per lane.
+    #[inline(always)]
+    pub(crate) fn violation_of<T: Real>(&self, q_min: &[T; N], q_max: &[T; N]) -> T {
+        let mut phi = T::ZERO;
         for (((lo, hi), mn), mx) in self
             .lower
             .iter()
@@ -372,7 +380,7 @@ impl<const N: usize> Robot<N> {
             .zip(q_min.iter())
             .zip(q_max.iter())
         {
-            phi += (mx - hi).max(0.0) + (lo - mn).max(0.0);
+            phi += (*mx - *hi).max(T::ZERO) + (T::splat(*lo) - *mn).max(T::ZERO);
         }
         phi
     }

@@ -14,8 +14,9 @@
 use crate::error::Error;
 use crate::geometry::{Sym3, Vec3};
 use crate::kinematics::Frames;
+use crate::lanes::Real;
 use crate::model::Robot;
-use nalgebra::{SMatrix, Vector6};
+use nalgebra::{SMatrix, Vector3, Vector6};
 
 /// `H~b` and `H~bm` at one configuration, base frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,22 +29,22 @@ pub struct Momentum<const N: usize> {
 
 /// Mass and first moment about `r_g` of the subtree `j..N` (kg, kg m).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Subtree {
+struct Subtree<T> {
     mass: f64,
-    moment: Vec3,
+    moment: Vector3<T>,
 }
 
 /// The backward pass: writes `H~bm` columns and subtree data, returns `Ī_1` (kg m²).
 #[inline(always)]
-fn backward_pass<const N: usize>(
+fn backward_pass<const N: usize, T: Real>(
     robot: &Robot<N>,
-    frames: &Frames<N>,
-    hbm: &mut [Vec3; N],
-    subtrees: &mut [Subtree; N],
-) -> Sym3 {
+    frames: &Frames<N, T>,
+    hbm: &mut [Vector3<T>; N],
+    subtrees: &mut [Subtree<T>; N],
+) -> Sym3<T> {
     let rg = frames.com;
-    let mut inertia = Sym3::ZERO;
-    let mut moment = Vec3::zeros();
+    let mut inertia = Sym3::<T>::ZERO;
+    let mut moment = Vector3::<T>::zeros();
     let mut mass = 0.0;
     let items = hbm
         .iter_mut()
@@ -56,7 +57,7 @@ fn backward_pass<const N: usize>(
         inertia = inertia
             .add(&Sym3::rotated_factor(&link.rot, &seg.inertia))
             .add(&Sym3::point_mass(seg.mass, &d));
-        moment += d * seg.mass;
+        moment += d * T::splat(seg.mass);
         mass += seg.mass;
         let k = link.axis();
         let e = link.joint - rg;
@@ -71,7 +72,7 @@ fn backward_pass<const N: usize>(
 fn full_pass<const N: usize>(
     robot: &Robot<N>,
     frames: &Frames<N>,
-) -> ([Vec3; N], [Subtree; N], Sym3) {
+) -> ([Vec3; N], [Subtree<f64>; N], Sym3) {
     let mut hbm = [Vec3::zeros(); N];
     let mut subtrees = [Subtree {
         mass: 0.0,
@@ -124,13 +125,18 @@ impl<const N: usize> Momentum<N> {
     }
 }
 
-/// `H~bm` only: the hot path of the rollout (columns, kg m²).
+/// `H~bm` only: the hot path of the rollout (columns, kg m²), for one configuration
+/// (`f64`) or several side by side ([`Real`] lanes).
+#[inline(always)]
 #[must_use]
-pub fn coupling<const N: usize>(robot: &Robot<N>, frames: &Frames<N>) -> [Vec3; N] {
-    let mut hbm = [Vec3::zeros(); N];
+pub fn coupling<const N: usize, T: Real>(
+    robot: &Robot<N>,
+    frames: &Frames<N, T>,
+) -> [Vector3<T>; N] {
+    let mut hbm = [Vector3::<T>::zeros(); N];
     let mut subtrees = [Subtree {
         mass: 0.0,
-        moment: Vec3::zeros(),
+        moment: Vector3::<T>::zeros(),
     }; N];
     let _ = backward_pass(robot, frames, &mut hbm, &mut subtrees);
     hbm

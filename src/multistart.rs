@@ -391,14 +391,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         let cap = f64::INFINITY;
         match self.phase {
             Phase::Screen(i) => (to_eta(self.pool.get(i).unwrap_or(&self.x)), cap),
-            Phase::Column(c) | Phase::Refresh(c) => {
-                let u = self.tangent(c);
-                let mut p = self.x;
-                for (v, d) in p.iter_mut().zip(u.iter()) {
-                    *v += self.config.fd_step * d;
-                }
-                (to_eta(&p), cap)
-            }
+            Phase::Column(c) | Phase::Refresh(c) => (to_eta(&self.column_point(c)), cap),
             Phase::Trial => (to_eta(&self.trial), self.trial_cap()),
             Phase::Done => (self.best_eta, cap),
         }
@@ -606,6 +599,16 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         self.ref_merit = self.merit;
         self.ref_rollout = self.report.rollouts;
         self.phase = Phase::Column(0);
+    }
+
+    /// The point that differences tangent direction `c`: `x + h·u_c`.
+    fn column_point(&self, c: usize) -> Col {
+        let u = self.tangent(c);
+        let mut p = self.x;
+        for (v, d) in p.iter_mut().zip(u.iter()) {
+            *v += self.config.fd_step * d;
+        }
+        p
     }
 
     /// Tangent direction `c` (`0..2K−1`) at `x`: column `c'` of the Householder matrix, `c'`
@@ -868,6 +871,29 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
     /// Accepted LM steps, and the LM start in progress.
     fn progress(&self) -> (u32, u32) {
         (self.report.accepted, self.report.starts)
+    }
+
+    /// The rest of a screening batch, or of a full difference Jacobian (the iterate does
+    /// not move while its columns are differenced).
+    fn ahead(&self, j: usize) -> Option<Candidate<K>> {
+        let cap = f64::INFINITY;
+        match self.phase {
+            Phase::Screen(i) => {
+                let i = i.checked_add(j)?;
+                if i >= self.config.screen as usize {
+                    return None;
+                }
+                self.pool.get(i).map(|p| Candidate::plain(to_eta(p), cap))
+            }
+            Phase::Column(c) => {
+                let c = c.checked_add(j)?;
+                if c + 1 >= Self::D {
+                    return None;
+                }
+                Some(Candidate::plain(to_eta(&self.column_point(c)), cap))
+            }
+            Phase::Refresh(_) | Phase::Trial | Phase::Done => None,
+        }
     }
 }
 

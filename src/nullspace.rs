@@ -15,6 +15,8 @@
 
 use crate::error::RankLoss;
 use crate::geometry::{Ldlt3, Sym3, Vec3};
+use crate::lanes::{Mask, Real};
+use nalgebra::Vector3;
 
 /// Smallest accepted estimate of `σ_min(H~bm)/σ_max(H~bm)`.
 ///
@@ -38,9 +40,9 @@ impl<const N: usize, const K: usize> Dims<N, K> {
 }
 
 /// `AAᵀ` of `A = [a_1 … a_N]` (columns).
-#[inline]
-fn gram<const N: usize>(a: &[Vec3; N]) -> Sym3 {
-    let mut g = Sym3::ZERO;
+#[inline(always)]
+fn gram<const N: usize, T: Real>(a: &[Vector3<T>; N]) -> Sym3<T> {
+    let mut g = Sym3::<T>::ZERO;
     for c in a {
         g = g.add(&Sym3 {
             xx: c.x * c.x,
@@ -54,17 +56,15 @@ fn gram<const N: usize>(a: &[Vec3; N]) -> Sym3 {
     g
 }
 
-/// Factors `AAᵀ` and checks the rank of `A` (see [`RANK_TOLERANCE`]).
-#[inline]
-fn factor<const N: usize>(a: &[Vec3; N]) -> Result<Ldlt3, RankLoss> {
+/// Factors `AAᵀ` and checks the rank of `A` (see [`RANK_TOLERANCE`]): per lane, whether
+/// `AAᵀ` is positive definite with the estimated `σ_min/σ_max` above the tolerance.
+#[inline(always)]
+fn factor<const N: usize, T: Real>(a: &[Vector3<T>; N]) -> (Ldlt3<T>, T::Mask) {
     let g = gram(a);
-    let f = g.ldlt().ok_or(RankLoss::Coupling)?;
+    let (f, pd) = g.ldlt_masked();
     let ratio_sq = f.det() / (g.minor_sum() * g.trace());
-    if ratio_sq >= RANK_TOLERANCE * RANK_TOLERANCE {
-        Ok(f)
-    } else {
-        Err(RankLoss::Coupling)
-    }
+    let conditioned = ratio_sq.ge(T::splat(RANK_TOLERANCE * RANK_TOLERANCE));
+    (f, pd.and(conditioned))
 }
 
 /// Estimated `σ_min/σ_max` of `A` (within a factor 3 below the true value), or 0 when
@@ -78,15 +78,15 @@ pub fn conditioning<const N: usize>(a: &[Vec3; N]) -> f64 {
     }
 }
 
-#[inline]
-fn dot<const N: usize>(x: &[f64; N], y: &[f64; N]) -> f64 {
-    x.iter().zip(y.iter()).fold(0.0, |s, (a, b)| s + a * b)
+#[inline(always)]
+fn dot<const N: usize, T: Real>(x: &[T; N], y: &[T; N]) -> T {
+    x.iter().zip(y.iter()).fold(T::ZERO, |s, (a, b)| s + *a * *b)
 }
 
 /// `x ← P x = x − Aᵀ (AAᵀ)⁻¹ A x`.
-#[inline]
-fn project<const N: usize>(a: &[Vec3; N], f: &Ldlt3, x: &mut [f64; N]) {
-    let mut ax = Vec3::zeros();
+#[inline(always)]
+fn project<const N: usize, T: Real>(a: &[Vector3<T>; N], f: &Ldlt3<T>, x: &mut [T; N]) {
+    let mut ax = Vector3::<T>::zeros();
     for (c, v) in a.iter().zip(x.iter()) {
         ax += c * *v;
     }
@@ -96,13 +96,37 @@ fn project<const N: usize>(a: &[Vec3; N], f: &Ldlt3, x: &mut [f64; N]) {
     }
 }
 
-/// `cols ← MGS(P·cols)` for `P` the null-space projector of `a`, in place.
+/// Per lane, which part of the transport failed: `AAᵀ` (rank of `A`) or a Gram–Schmidt
+/// pivot. `true` = fine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Conditioned<M> {
+    /// `A` has full rank ([`RankLoss::Coupling`] where not).
+    pub(crate) coupling: M,
+    /// Every pivot is above [`PIVOT_TOLERANCE`] ([`RankLoss::Basis`] where not).
+    pub(crate) basis: M,
+}
+
+impl Conditioned<bool> {
+    /// The scalar verdict: the first failure, as the scalar transport reports it.
+    #[inline(always)]
+    pub(crate) fn result(self) -> Result<(), RankLoss> {
+        match (self.coupling, self.basis) {
+            (false, _) => Err(RankLoss::Coupling),
+            (true, false) => Err(RankLoss::Basis),
+            (true, true) => Ok(()),
+        }
+    }
+}
+
+/// `cols ← MGS(P·cols)` for `P` the null-space projector of `a`, in place, for one
+/// configuration or several side by side. Where a lane fails, its columns are meaningless.
 #[inline(always)]
-fn orthonormalize<const N: usize, const K: usize>(
-    a: &[Vec3; N],
-    cols: &mut [[f64; N]; K],
-) -> Result<(), RankLoss> {
-    let f = factor(a)?;
+fn orthonormalize_masked<const N: usize, const K: usize, T: Real>(
+    a: &[Vector3<T>; N],
+    cols: &mut [[T; N]; K],
+) -> Conditioned<T::Mask> {
+    let (f, coupling) = factor(a);
+    let mut basis = coupling;
     for i in 0..K {
         let Some((done, rest)) = cols.split_at_mut_checked(i) else {
             break;
@@ -114,33 +138,75 @@ fn orthonormalize<const N: usize, const K: usize>(
         for u in done.iter() {
             let c = dot(u, v);
             for (vi, ui) in v.iter_mut().zip(u.iter()) {
-                *vi -= c * ui;
+                *vi -= c * *ui;
             }
         }
-        let norm = libm::sqrt(dot(v, v));
-        if norm.is_nan() || norm <= PIVOT_TOLERANCE {
-            return Err(RankLoss::Basis);
-        }
-        let inv = 1.0 / norm;
+        let norm = dot(v, v).sqrt();
+        // A NaN norm fails too.
+        basis = basis.and(norm.gt(T::splat(PIVOT_TOLERANCE)));
+        let inv = T::ONE / norm;
         for vi in v.iter_mut() {
             *vi *= inv;
         }
     }
-    Ok(())
+    Conditioned { coupling, basis }
 }
 
-/// An orthonormal basis of the reaction null space (columns, `K = N − 3` of them).
+/// `cols ← MGS(P·cols)` for `P` the null-space projector of `a`, in place.
+#[inline(always)]
+fn orthonormalize<const N: usize, const K: usize>(
+    a: &[Vec3; N],
+    cols: &mut [[f64; N]; K],
+) -> Result<(), RankLoss> {
+    orthonormalize_masked(a, cols).result()
+}
+
+/// An orthonormal basis of the reaction null space (columns, `K = N − 3` of them): of
+/// one configuration (`f64`), or of several side by side ([`Real`] lanes).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Basis<const N: usize, const K: usize> {
-    cols: [[f64; N]; K],
+pub struct Basis<const N: usize, const K: usize, T = f64> {
+    cols: [[T; N]; K],
+}
+
+impl<const N: usize, const K: usize, T: Real> Basis<N, K, T> {
+    /// All zeros (a placeholder for statically allocated state).
+    pub const IDLE: Self = Self {
+        cols: [[T::ZERO; N]; K],
+    };
+
+    /// The basis vectors (unit joint-rate directions, dimensionless).
+    #[must_use]
+    pub fn columns(&self) -> &[[T; N]; K] {
+        &self.cols
+    }
+
+    /// The basis vectors, to write lane by lane.
+    pub(crate) fn columns_mut(&mut self) -> &mut [[T; N]; K] {
+        &mut self.cols
+    }
+
+    /// `Σ_i α_i n_i`.
+    #[inline(always)]
+    #[must_use]
+    pub fn combine(&self, alpha: &[T; K]) -> [T; N] {
+        let mut out = [T::ZERO; N];
+        for (col, &w) in self.cols.iter().zip(alpha.iter()) {
+            for (o, c) in out.iter_mut().zip(col.iter()) {
+                *o += w * *c;
+            }
+        }
+        out
+    }
+
+    /// `MGS(P(q')·N)` in place, for each lane: the basis carried to the configuration whose
+    /// `H~bm` is `a`. Where a lane fails, its columns are meaningless.
+    #[inline(always)]
+    pub(crate) fn transport_masked(&mut self, a: &[Vector3<T>; N]) -> Conditioned<T::Mask> {
+        orthonormalize_masked(a, &mut self.cols)
+    }
 }
 
 impl<const N: usize, const K: usize> Basis<N, K> {
-    /// All zeros (a placeholder for statically allocated state).
-    pub const IDLE: Self = Self {
-        cols: [[0.0; N]; K],
-    };
-
     /// `N₀ = MGS(P(q)·E)` for `A = H~bm(q)` given by its columns.
     ///
     /// # Errors
@@ -166,35 +232,9 @@ impl<const N: usize, const K: usize> Basis<N, K> {
         Self::orthonormalize(a, self.cols)
     }
 
-    /// [`Basis::transported`] in place (the rollout's hot path: no copy of the basis). On
-    /// error the basis is left partly updated; the rollout that owns it has failed.
-    #[inline(always)]
-    pub(crate) fn transport(&mut self, a: &[Vec3; N]) -> Result<(), RankLoss> {
-        orthonormalize(a, &mut self.cols)
-    }
-
     #[inline(always)]
     fn orthonormalize(a: &[Vec3; N], mut cols: [[f64; N]; K]) -> Result<Self, RankLoss> {
         orthonormalize(a, &mut cols)?;
         Ok(Self { cols })
-    }
-
-    /// The basis vectors (unit joint-rate directions, dimensionless).
-    #[must_use]
-    pub fn columns(&self) -> &[[f64; N]; K] {
-        &self.cols
-    }
-
-    /// `Σ_i α_i n_i`.
-    #[inline]
-    #[must_use]
-    pub fn combine(&self, alpha: &[f64; K]) -> [f64; N] {
-        let mut out = [0.0; N];
-        for (col, &w) in self.cols.iter().zip(alpha.iter()) {
-            for (o, c) in out.iter_mut().zip(col.iter()) {
-                *o += w * c;
-            }
-        }
-        out
     }
 }

@@ -133,6 +133,19 @@ pub trait Optimizer<const N: usize, const K: usize> {
     /// Where the optimizer is, for progress reports: its iteration and the index of the
     /// candidate within it.
     fn progress(&self) -> (u32, u32);
+
+    /// The candidate `j ≥ 1` places after [`Optimizer::candidate`], if it is known already:
+    /// the one the optimizer will ask for after `j` more evaluations, unless one of them
+    /// ends the search or changes its course (C-PSO: the rest of a generation; the
+    /// multistart: the rest of a screening batch or of a difference Jacobian). The planner
+    /// evaluates such candidates ahead, side by side in lanes ([`crate::batch`]), and uses
+    /// a result only if the optimizer then asks for exactly that candidate (η, cap and
+    /// truth flag, bit for bit), so a wrong guess costs work, never a different result.
+    /// Must not draw randomness. Default: none known.
+    fn ahead(&self, j: usize) -> Option<Candidate<K>> {
+        let _ = j;
+        None
+    }
 }
 
 /// Something the planner did, for logs and histories.

@@ -43,6 +43,7 @@
 //! `iterations` is the number of generations after it. A feasible particle with
 //! `f ≤ tolerance` stops C-PSO at once, even in the middle of a generation.
 
+use crate::batch::{Batch, Engine, Ended, Portable};
 use crate::config::{PlannerConfig, RefineAgainst, Strategy};
 use crate::cpso::Cpso;
 use crate::error::Error;
@@ -54,6 +55,7 @@ use crate::rollout::{Outcome, Progress, Rollout, Sample};
 use crate::swarm::{Cost, Swarm};
 use crate::task::Task;
 use crate::truth::{MIN_SUBSTEPS, TruthState};
+use core::marker::PhantomData;
 
 /// Truth-model sub-steps per integration step when a candidate asks for the truth model.
 pub const TRUTH_SUBSTEPS: u32 = MIN_SUBSTEPS;
@@ -198,10 +200,72 @@ struct Flight<const N: usize, const K: usize> {
     done: Option<Outcome<N>>,
 }
 
+/// Candidates evaluated ahead, side by side in lanes ([`Optimizer::ahead`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Ahead<const N: usize, const K: usize, const L: usize> {
+    batch: Batch<N, K, L>,
+    /// The candidate each lane holds.
+    queue: [Candidate<K>; L],
+    /// The lane that holds the candidate the optimizer asks for now.
+    head: usize,
+    /// Lanes in use: `head`, `head + 1`, … (mod `L`) hold consecutive candidates.
+    len: usize,
+}
+
+impl<const N: usize, const K: usize, const L: usize> Ahead<N, K, L> {
+    const IDLE: Self = Self {
+        batch: Batch::IDLE,
+        queue: [Candidate::plain([[0.0; 2]; K], f64::INFINITY); L],
+        head: 0,
+        len: 0,
+    };
+
+    /// Every lane emptied (their work discarded).
+    fn flush(&mut self, task: &Task<N, K>) {
+        if L > 1 {
+            self.batch.reset(task);
+        }
+        self.head = 0;
+        self.len = 0;
+    }
+
+    /// The lane `j` places after the head.
+    fn lane(&self, j: usize) -> usize {
+        (self.head + j) % L
+    }
+}
+
+/// `a` and `b` are the same candidate, bit for bit.
+fn same<const K: usize>(a: &Candidate<K>, b: &Candidate<K>) -> bool {
+    a.truth == b.truth
+        && a.cap.to_bits() == b.cap.to_bits()
+        && a
+            .eta
+            .iter()
+            .flatten()
+            .zip(b.eta.iter().flatten())
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
 /// The planner for `N` joints, null-space dimension `K = N − 3` and a swarm capacity of `P`
-/// particles (C-PSO only).
+/// particles (C-PSO only), evaluating up to `L` candidates side by side with engine `E`
+/// ([`crate::batch`]; `L = 1`, the default: one at a time, as on the flight target).
+///
+/// With `L > 1`, candidates that the search knows in advance ([`Optimizer::ahead`]: the
+/// rest of a C-PSO generation, of a multistart screening batch or of a difference
+/// Jacobian) are integrated in lockstep, each lane with the bits of the scalar rollout;
+/// each result is used only when the search asks for exactly that candidate, in the
+/// search's order, so the plan is bit-identical to the one of `L = 1` (the work of a
+/// candidate the search no longer wants is discarded: it counts in [`Planner::spent`], not
+/// in the rollout count).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Planner<const N: usize, const K: usize, const P: usize> {
+pub struct Planner<
+    const N: usize,
+    const K: usize,
+    const P: usize,
+    const L: usize = 1,
+    E: Engine = Portable,
+> {
     task: Task<N, K>,
     config: PlannerConfig,
     stream: Stream,
@@ -221,13 +285,18 @@ pub struct Planner<const N: usize, const K: usize, const P: usize> {
     search_f: f64,
     /// Budget consumed so far (units, plus one per rejected candidate).
     spent: u64,
+    /// Candidates in lanes (`L > 1`).
+    ahead: Ahead<N, K, L>,
+    engine: PhantomData<E>,
 }
 
 fn cost_of<const N: usize>(o: &Outcome<N>) -> Cost {
     Cost { phi: o.phi, f: o.f }
 }
 
-impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
+impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
+    Planner<N, K, P, L, E>
+{
     /// A planner without a task, `const`: flight software places it in static memory and
     /// gives it work with [`Planner::reset`], so the 30-odd KiB of state never pass through
     /// the stack. [`Planner::step`] returns [`Error::NotInitialized`] until then.
@@ -248,6 +317,8 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
         first_hit_f: f64::INFINITY,
         search_f: f64::INFINITY,
         spent: 0,
+        ahead: Ahead::IDLE,
+        engine: PhantomData,
     };
 
     /// Starts planning `task` from scratch, in place: the planner ends up exactly as
@@ -288,6 +359,7 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
     /// As [`Planner::reset`].
     pub fn restart(&mut self, config: PlannerConfig) -> Result<(), Error> {
         self.flight = None;
+        self.ahead.flush(&self.task);
         self.record = Record::Failed(Error::NotInitialized);
         self.eta = [[0.0; 2]; K];
         self.rollouts = 0;
@@ -435,10 +507,17 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 Phase::Failed(e) => return Err(e),
                 Phase::Search | Phase::Refine(_) => {}
             }
+            if self.ahead.len > 0 {
+                self.run_ahead(left, observer);
+                continue;
+            }
             let mut flight = match self.flight.take() {
                 Some(f) => f,
                 None => {
                     let c = self.candidate();
+                    if L > 1 && self.start_ahead(&c) {
+                        continue;
+                    }
                     self.eta = c.eta;
                     match Rollout::new(&self.task, &c.eta) {
                         Ok(r) => Flight {
@@ -561,6 +640,23 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
             (_, Strategy::Cpso) => Optimizer::<N, K>::candidate(&self.cpso),
             (_, Strategy::Multistart) => self.multistart.candidate(),
         };
+        self.capped(c)
+    }
+
+    /// The candidate `j` places after [`Planner::candidate`], if the search knows it and
+    /// it needs no truth model (see [`Optimizer::ahead`]).
+    fn ahead_candidate(&self, j: usize) -> Option<Candidate<K>> {
+        let c = match (&self.phase, self.config.strategy) {
+            (Phase::Refine(r), _) => r.ahead(j),
+            (Phase::Search, Strategy::Cpso) => Optimizer::<N, K>::ahead(&self.cpso, j),
+            (Phase::Search, Strategy::Multistart) => self.multistart.ahead(j),
+            (Phase::Done(_) | Phase::Failed(_), _) => None,
+        }?;
+        (!c.truth).then(|| self.capped(c))
+    }
+
+    /// `c` with its violation cap lifted while no finished rollout is on record.
+    fn capped(&self, c: Candidate<K>) -> Candidate<K> {
         match self.record {
             Record::Found(..) => c,
             Record::Failed(_) => Candidate {
@@ -568,6 +664,106 @@ impl<const N: usize, const K: usize, const P: usize> Planner<N, K, P> {
                 ..c
             },
         }
+    }
+
+    /// Starts `c` (the current candidate) and the candidates the search knows after it in
+    /// lanes, if it knows at least one (`false`: evaluate `c` alone).
+    fn start_ahead(&mut self, c: &Candidate<K>) -> bool {
+        if c.truth || self.ahead_candidate(1).is_none() {
+            return false;
+        }
+        self.ahead.flush(&self.task);
+        if !self.load_lane(0, c) {
+            // Rejected before integration: the scalar path reports it.
+            return false;
+        }
+        while self.ahead.len < L {
+            match self.ahead_candidate(self.ahead.len) {
+                Some(next) if self.load_lane(self.ahead.lane(self.ahead.len), &next) => {}
+                _ => break,
+            }
+        }
+        true
+    }
+
+    /// Loads `c` into lane `lane` as the next candidate of the window (`false`: η rejected).
+    fn load_lane(&mut self, lane: usize, c: &Candidate<K>) -> bool {
+        let a = &mut self.ahead;
+        if a.batch.load(lane, &self.task, &c.eta, c.cap).is_err() {
+            return false;
+        }
+        if let Some(q) = a.queue.get_mut(lane) {
+            *q = *c;
+        }
+        a.len += 1;
+        true
+    }
+
+    /// One move of the candidates in lanes: absorb the head's result if its rollout ended
+    /// (after checking that the search asks for exactly it, else every lane is dropped),
+    /// and load the freed lane with the next candidate the search knows; otherwise advance
+    /// the lanes by as many lane-steps as `left` allows. Every lane's integration step
+    /// counts one unit; when `left` is smaller than the number of running lanes, only the
+    /// first `left` of them (from the head) move.
+    fn run_ahead<O: Observer>(&mut self, left: &mut u32, observer: &mut O) {
+        let head = self.ahead.head;
+        if let Some(end) = self.ahead.batch.take(head) {
+            let c = self.ahead.queue.get(head).copied();
+            let now = self.candidate();
+            let Some(c) = c.filter(|c| same(c, &now)) else {
+                // The search changed course: what the lanes hold is not wanted.
+                self.ahead.flush(&self.task);
+                return;
+            };
+            self.ahead.head = (head + 1) % L;
+            self.ahead.len -= 1;
+            self.eta = c.eta;
+            let evaluation = match end {
+                Ended::Done(o) => Evaluation::Finished(o),
+                Ended::Abandoned { phi, .. } => Evaluation::Abandoned(phi),
+                Ended::Failed(e) => Evaluation::Failed(e),
+            };
+            self.absorb(evaluation, observer);
+            if !matches!(self.phase, Phase::Search | Phase::Refine(_)) {
+                self.ahead.flush(&self.task);
+                return;
+            }
+            // The lane after the window (the one just freed when the window was full).
+            if self.ahead.len > 0
+                && let Some(next) = self.ahead_candidate(self.ahead.len)
+            {
+                self.load_lane(self.ahead.lane(self.ahead.len), &next);
+            }
+            return;
+        }
+        let running = self.ahead.batch.running();
+        if running == 0 {
+            // Not expected (the head's lane runs until it ends); start afresh.
+            self.ahead.flush(&self.task);
+            return;
+        }
+        let mut hold = [false; L];
+        let steps = if *left >= running {
+            *left / running
+        } else {
+            let mut moving = 0;
+            for j in 0..self.ahead.len {
+                let lane = self.ahead.lane(j);
+                let runs = matches!(
+                    self.ahead.batch.lane(lane),
+                    Some(crate::batch::Lane::Running { .. })
+                );
+                if runs {
+                    if let Some(h) = hold.get_mut(lane) {
+                        *h = moving >= *left;
+                    }
+                    moving += 1;
+                }
+            }
+            1
+        };
+        let work = E::run(&mut self.ahead.batch, &self.task, steps, hold);
+        *left = left.saturating_sub(work.max(1));
     }
 
     fn plan(&self, stop: Stop, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Plan<N, K> {

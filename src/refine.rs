@@ -176,16 +176,19 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
     #[must_use]
     pub fn next_eta(&self) -> [[f64; 2]; K] {
         match self.awaiting {
-            Awaiting::Column(c) => {
-                let mut eta = self.eta;
-                if let Some(v) = eta.get_mut(c / 2).and_then(|p| p.get_mut(c % 2)) {
-                    *v += self.h;
-                }
-                eta
-            }
+            Awaiting::Column(c) => self.column_eta(c),
             Awaiting::Start => self.eta,
             Awaiting::Trial => self.trial,
         }
+    }
+
+    /// η of Jacobian column `c`: component `c` perturbed by `h`.
+    fn column_eta(&self, c: usize) -> [[f64; 2]; K] {
+        let mut eta = self.eta;
+        if let Some(v) = eta.get_mut(c / 2).and_then(|p| p.get_mut(c % 2)) {
+            *v += self.h;
+        }
+        eta
     }
 
     /// `true` if the next rollout is a trial step (not a Jacobian column).
@@ -367,6 +370,19 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
             Awaiting::Trial => 2 * K as u32,
         };
         (self.iterations, c)
+    }
+
+    /// The rest of the Jacobian's columns (each perturbs one component of the unchanging
+    /// η; planner model, never cut short).
+    fn ahead(&self, j: usize) -> Option<Candidate<K>> {
+        let Awaiting::Column(c) = self.awaiting else {
+            return None;
+        };
+        let c = c.checked_add(j)?;
+        if c >= 2 * K || self.stop.is_some() {
+            return None;
+        }
+        Some(Candidate::plain(self.column_eta(c), f64::INFINITY))
     }
 }
 

@@ -18,10 +18,12 @@ use crate::error::Error;
 use crate::geometry::{Pose, PoseError};
 use crate::integrator::euler_step;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
+use crate::lanes::{Lanes, Real};
+use crate::model::Robot;
 use crate::momentum::coupling;
-use crate::nullspace::Basis;
+use crate::nullspace::{Basis, Conditioned};
 use crate::task::{Task, rank_error};
-use crate::trajectory::TimeLaw;
+use crate::trajectory::{Motion, TimeLaw, alpha};
 use core::convert::Infallible;
 
 /// One point of the trajectory.
@@ -112,17 +114,143 @@ enum Phase<const N: usize> {
     Failed(Error),
 }
 
+/// What the integration loop carries from step to step, for one rollout (`f64`) or for
+/// several side by side ([`Lanes`], see [`crate::batch`]): the one source of the hot path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct State<const N: usize, const K: usize, T> {
+    /// Configuration `q_s` (rad).
+    pub(crate) q: [T; N],
+    /// Null-space basis at `q_s`.
+    pub(crate) basis: Basis<N, K, T>,
+    /// Smallest value of each joint over the samples so far (rad).
+    pub(crate) q_min: [T; N],
+    /// Largest value of each joint over the samples so far (rad).
+    pub(crate) q_max: [T; N],
+    /// Largest `|q̇_r|` over the samples so far (rad/s).
+    pub(crate) max_abs_qd: T,
+}
+
+/// How one integration step went, per lane: `q_{s+1}` finite, and the basis transport.
+pub(crate) struct Stepped<M> {
+    pub(crate) finite: M,
+    pub(crate) conditioned: Conditioned<M>,
+}
+
+impl<const N: usize, const K: usize, T: Real> State<N, K, T> {
+    /// `q̇_s = Σ_i α_i(t_s) N_s[:, i]` for normalised weights `(a_i, b_i)` and `1/g`.
+    #[inline(always)]
+    pub(crate) fn rates(&self, ab: &[[T; 2]; K], inv_g: T, motion: &Motion, t: T) -> [T; N] {
+        let w = alpha(ab, inv_g, motion.tf(), motion.degree(), t);
+        self.basis.combine(&w)
+    }
+
+    /// Folds sample `s` (`q_s`, and its rates `qd`) into the extrema.
+    #[inline(always)]
+    pub(crate) fn fold(&mut self, qd: &[T; N]) {
+        for ((q, lo), hi) in self
+            .q
+            .iter()
+            .zip(self.q_min.iter_mut())
+            .zip(self.q_max.iter_mut())
+        {
+            *lo = lo.min(*q);
+            *hi = hi.max(*q);
+        }
+        for v in qd {
+            self.max_abs_qd = self.max_abs_qd.max(v.abs());
+        }
+    }
+
+    /// One integration step after sample `s`: `q_{s+1} = q_s + dt·q̇_s`, then the basis
+    /// carried to `q_{s+1}`. Where a lane is not finite or not conditioned, its state is
+    /// meaningless.
+    #[inline(always)]
+    pub(crate) fn step(
+        &mut self,
+        robot: &Robot<N>,
+        qd: &[T; N],
+        dt: f64,
+        frames: &mut Frames<N, T>,
+    ) -> Stepped<T::Mask> {
+        euler_step(&mut self.q, qd, dt);
+        let finite = self
+            .q
+            .iter()
+            .fold(T::ONE.finite(), |m, v| crate::lanes::Mask::and(m, v.finite()));
+        // Only links and CoM feed H~bm; the end-effector fields stay unused.
+        let _ = frames.update_chain(robot, &self.q);
+        let conditioned = self.basis.transport_masked(&coupling(robot, frames));
+        Stepped {
+            finite,
+            conditioned,
+        }
+    }
+}
+
+impl<const N: usize, const K: usize> State<N, K, f64> {
+    /// At `q₀` of `task`, nothing folded yet.
+    pub(crate) fn start(task: &Task<N, K>) -> Self {
+        let q = *task.start();
+        Self {
+            q,
+            basis: *task.initial_basis(),
+            q_min: q,
+            q_max: q,
+            max_abs_qd: 0.0,
+        }
+    }
+}
+
+impl<const N: usize, const K: usize, const L: usize> State<N, K, Lanes<L>> {
+    /// Lane `i` as one rollout's state.
+    pub(crate) fn lane(&self, i: usize) -> State<N, K, f64> {
+        let pick = |v: &[Lanes<L>; N]| v.map(|x| x.lane(i));
+        let mut basis = Basis::<N, K>::IDLE;
+        for (to, from) in basis
+            .columns_mut()
+            .iter_mut()
+            .zip(self.basis.columns().iter())
+        {
+            *to = pick(from);
+        }
+        State {
+            q: pick(&self.q),
+            basis,
+            q_min: pick(&self.q_min),
+            q_max: pick(&self.q_max),
+            max_abs_qd: self.max_abs_qd.lane(i),
+        }
+    }
+
+    /// Writes one rollout's state into lane `i`.
+    pub(crate) fn set_lane(&mut self, i: usize, s: &State<N, K, f64>) {
+        let put = |to: &mut [Lanes<L>; N], from: &[f64; N]| {
+            for (t, f) in to.iter_mut().zip(from.iter()) {
+                t.set(i, *f);
+            }
+        };
+        for (to, from) in self
+            .basis
+            .columns_mut()
+            .iter_mut()
+            .zip(s.basis.columns().iter())
+        {
+            put(to, from);
+        }
+        put(&mut self.q, &s.q);
+        put(&mut self.q_min, &s.q_min);
+        put(&mut self.q_max, &s.q_max);
+        self.max_abs_qd.set(i, s.max_abs_qd);
+    }
+}
+
 /// The mutable state of one rollout. Create with [`Rollout::new`], drive with
 /// [`Rollout::advance`] against the same [`Task`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rollout<const N: usize, const K: usize> {
     law: TimeLaw<K>,
     step: u32,
-    q: [f64; N],
-    basis: Basis<N, K>,
-    q_min: [f64; N],
-    q_max: [f64; N],
-    max_abs_qd: f64,
+    state: State<N, K, f64>,
     /// Abandon once Φ of the samples so far exceeds this (rad); `∞` never abandons.
     phi_cap: f64,
     phase: Phase<N>,
@@ -135,18 +263,18 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     /// η invalid (non-finite, all zero); see [`TimeLaw::new`].
     pub fn new(task: &Task<N, K>, eta: &[[f64; 2]; K]) -> Result<Self, Error> {
         let law = TimeLaw::new(eta, task.motion(), task.robot().qd_max())?;
-        let q = *task.start();
-        Ok(Self {
+        Ok(Self::resume(law, 0, State::start(task)))
+    }
+
+    /// A rollout of `law` at step `step` with `state` (a lane of a batch, taken out).
+    pub(crate) fn resume(law: TimeLaw<K>, step: u32, state: State<N, K, f64>) -> Self {
+        Self {
             law,
-            step: 0,
-            q,
-            basis: *task.initial_basis(),
-            q_min: q,
-            q_max: q,
-            max_abs_qd: 0.0,
+            step,
+            state,
             phi_cap: f64::INFINITY,
             phase: Phase::Running,
-        })
+        }
     }
 
     /// Makes the rollout stop with [`Progress::Abandoned`] as soon as the constraint
@@ -179,13 +307,13 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     /// The null-space basis at the current configuration.
     #[must_use]
     pub fn basis(&self) -> &Basis<N, K> {
-        &self.basis
+        &self.state.basis
     }
 
     /// The current configuration (rad).
     #[must_use]
     pub fn q(&self) -> &[f64; N] {
-        &self.q
+        &self.state.q
     }
 
     /// Advances by at most `budget` integration steps, handing each sample to `sink`.
@@ -279,23 +407,26 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         let motion = task.motion();
         let robot = task.robot();
         let dt = motion.dt();
+        let (ab, inv_g) = self.law.weights();
+        let ab = *ab;
         let mut frames = Frames::IDLE;
         while self.step < end {
             let t = motion.time(self.step);
-            let qd = self.basis.combine(&self.law.alpha(t));
+            let qd = self.state.rates(&ab, inv_g, motion, t);
             self.record(t, &qd, sink);
-            if let Err(stop) = cap.check(self.step, || robot.violation(&self.q_min, &self.q_max)) {
+            if let Err(stop) = cap.check(self.step, || {
+                robot.violation(&self.state.q_min, &self.state.q_max)
+            }) {
                 return Ok(Err(stop));
             }
-            euler_step(&mut self.q, &qd, dt);
+            let stepped = self.state.step(robot, &qd, dt, &mut frames);
             self.step += 1;
-            if !self.q.iter().all(|v| v.is_finite()) {
+            if !stepped.finite {
                 return Err(Error::NonFiniteState { step: self.step });
             }
-            // Only links and CoM feed H~bm; the end-effector fields stay unused.
-            let _ = frames.update_chain(robot, &self.q);
-            self.basis
-                .transport(&coupling(robot, &frames))
+            stepped
+                .conditioned
+                .result()
                 .map_err(rank_error(self.step))?;
         }
         Ok(Ok(()))
@@ -303,21 +434,22 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
 
     /// After the last step: the final sample at `t_f` (β(t_f) = 0 exactly, so q̇_S = 0) and
     /// the outcome.
-    fn conclude<S: Sink<N>>(&mut self, task: &Task<N, K>, sink: &mut S) -> Outcome<N> {
+    pub(crate) fn conclude<S: Sink<N>>(&mut self, task: &Task<N, K>, sink: &mut S) -> Outcome<N> {
         let tf = task.motion().tf();
-        let qd = self.basis.combine(&self.law.alpha(tf));
+        let qd = self.state.basis.combine(&self.law.alpha(tf));
         self.record(tf, &qd, sink);
-        let end_pose = task.end_pose(&self.q, IDENTITY_WXYZ);
+        let s = &self.state;
+        let end_pose = task.end_pose(&s.q, IDENTITY_WXYZ);
         let error = end_pose.error_to(task.target());
         Outcome {
-            q_final: self.q,
-            joint_min: self.q_min,
-            joint_max: self.q_max,
-            phi: task.robot().violation(&self.q_min, &self.q_max),
+            q_final: s.q,
+            joint_min: s.q_min,
+            joint_max: s.q_max,
+            phi: task.robot().violation(&s.q_min, &s.q_max),
             end_pose,
             error,
             f: error.norm(),
-            max_abs_qd: self.max_abs_qd,
+            max_abs_qd: s.max_abs_qd,
             g: self.law.g(),
         }
     }
@@ -328,21 +460,10 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         sink.sample(&Sample {
             step: self.step,
             t,
-            q: self.q,
+            q: self.state.q,
             qd: *qd,
         });
-        for ((q, lo), hi) in self
-            .q
-            .iter()
-            .zip(self.q_min.iter_mut())
-            .zip(self.q_max.iter_mut())
-        {
-            *lo = lo.min(*q);
-            *hi = hi.max(*q);
-        }
-        for v in qd {
-            self.max_abs_qd = self.max_abs_qd.max(libm::fabs(*v));
-        }
+        self.state.fold(qd);
     }
 }
 

@@ -17,6 +17,7 @@
 //! (`|η|·t_f^{n+2}/q̇_max ≳ 1e308`) is rejected with [`Error::EtaTooLarge`].
 
 use crate::error::{Error, Param};
+use crate::lanes::Real;
 
 /// Largest accepted time-law degree `n`.
 pub const MAX_DEGREE: u32 = 8;
@@ -140,8 +141,8 @@ pub fn eta_pairs<const K: usize>(eta: &[f64]) -> Result<[[f64; 2]; K], Error> {
 }
 
 /// `tⁿ` by repeated multiplication (`n ≤ MAX_DEGREE`).
-#[inline]
-fn powi(t: f64, n: u32) -> f64 {
+#[inline(always)]
+fn powi<T: Real>(t: T, n: u32) -> T {
     let mut p = t;
     for _ in 1..n.min(MAX_DEGREE) {
         p *= t;
@@ -247,10 +248,12 @@ impl<const K: usize> TimeLaw<K> {
     #[inline]
     #[must_use]
     pub fn alpha(&self, t: f64) -> [f64; K] {
-        let tn = powi(t, self.n);
-        let (w, inv_g) = (t - self.tf, self.inv_g);
-        self.ab
-            .map(|[a, b]| tn * w * (a * (t + self.tf) + b) * inv_g)
+        alpha(&self.ab, self.inv_g, self.tf, self.n, t)
+    }
+
+    /// The normalised `(a_i, b_i)` and `1/g` that [`TimeLaw::alpha`] evaluates.
+    pub(crate) fn weights(&self) -> (&[[f64; 2]; K], f64) {
+        (&self.ab, self.inv_g)
     }
 
     /// `β_i,max` for the η as given.
@@ -264,6 +267,22 @@ impl<const K: usize> TimeLaw<K> {
     pub fn g(&self) -> f64 {
         libm::scalbn(self.g, -self.scale_exp)
     }
+}
+
+/// `α_i(t) = tⁿ (t − t_f)(a_i (t + t_f) + b_i)/g` for normalised `(a_i, b_i)` and `1/g`:
+/// [`TimeLaw::alpha`] of one η (`f64`), or of several side by side ([`Real`] lanes, each
+/// lane its own η and time).
+#[inline(always)]
+pub(crate) fn alpha<const K: usize, T: Real>(
+    ab: &[[T; 2]; K],
+    inv_g: T,
+    tf: f64,
+    n: u32,
+    t: T,
+) -> [T; K] {
+    let tn = powi(t, n);
+    let w = t - tf;
+    ab.map(|[a, b]| tn * w * (a * (t + tf) + b) * inv_g)
 }
 
 /// `max |β|` over the critical points in `[0, t_f]` of `β(t) = tⁿ(t − t_f)(a(t + t_f) + b)`.

@@ -28,7 +28,7 @@ fn documented_sizes_for_the_reference_robot() {
     }
     assert_eq!(size_of::<Task<7, 4>>(), 3432);
     assert_eq!(size_of::<Rollout<7, 4>>(), 856);
-    assert_eq!(size_of::<Planner<7, 4, 64>>(), 37072);
+    assert_eq!(size_of::<Planner<7, 4, 64>>(), 37952);
     assert_eq!(size_of::<Multistart<7, 4>>(), 13808);
 }
 

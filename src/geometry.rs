@@ -142,7 +142,11 @@ pub fn zxz_angles(m: &Mat3) -> (f64, f64, f64) {
 
 /// Right-multiplies `r` by `Rx(b)` given `(sin b, cos b)`: only the last two columns change.
 #[inline(always)]
-pub(crate) fn mul_rx<T: Real + Mul<S, Output = T>, S: Copy>(r: &Matrix3<T>, s: S, c: S) -> Matrix3<T> {
+pub(crate) fn mul_rx<T: Real + Mul<S, Output = T>, S: Copy>(
+    r: &Matrix3<T>,
+    s: S,
+    c: S,
+) -> Matrix3<T> {
     Matrix3::new(
         r.m11,
         r.m12 * c + r.m13 * s,

@@ -5,7 +5,6 @@
 //! written row) and [`midpoint_substeps`] (used by [`crate::TruthModel`]). Both are the
 //! reference discretization: changing either moves every golden record.
 
-
 use crate::lanes::Real;
 
 /// `q ← q + dt·q̇`, joint by joint (rad, rad/s, s): the explicit Euler step of eq. 19, of

@@ -11,9 +11,7 @@
 //! Cost per joint: one `sincos`, two column-pair rotations (`Rx` of the twist, `Rz` of the
 //! joint angle) and two 3×3·vector products.
 
-use crate::geometry::{
-    Pose, Vec3, mat_mul, mat_vec, mul_rx, mul_rz, quat_matrix, splat3, splat33,
-};
+use crate::geometry::{Pose, Vec3, mat_mul, mat_vec, mul_rx, mul_rz, quat_matrix, splat3, splat33};
 use crate::lanes::Real;
 use crate::model::Robot;
 use nalgebra::{Matrix3, Vector3};
@@ -159,7 +157,6 @@ impl<const N: usize, T: Real> Frames<N, T> {
         self.com = moment / T::splat(robot.total_mass());
         (r_prev, p_prev)
     }
-
 }
 
 /// The identity attitude `[1, 0, 0, 0]`.

@@ -411,7 +411,11 @@ pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
     // Small: |x| ≤ π/4 (high word ≤ 0x3fe921fb).
     let small_bound = bound(0x3fe9_21fc);
     let elsewhere = each2(ax, k, |a, k| {
-        if (a < small_bound) | (k != 0.0) { 0.0 } else { 1.0 }
+        if (a < small_bound) | (k != 0.0) {
+            0.0
+        } else {
+            1.0
+        }
     });
     if L == 1 || elsewhere.iter().any(|e| *e != 0.0) {
         let (mut s, mut c) = ([0.0; L], [0.0; L]);
@@ -453,7 +457,11 @@ pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
     // Quadrant q = n mod 4 (0 where small): (s, c), (c, −s), (−s, −c), (−c, s).
     let q = each2(ax, n, |a, n| {
         let q = if n < 0.0 { n + 4.0 } else { n };
-        if (a < small_bound) | (q == 4.0) { 0.0 } else { q }
+        if (a < small_bound) | (q == 4.0) {
+            0.0
+        } else {
+            q
+        }
     });
     let s_out = each3(q, sin, cos, |q, s, c| {
         let v = if (q == 1.0) | (q == 3.0) { c } else { s };

@@ -15,10 +15,10 @@
 //! see [`crate::kinematics`].
 
 use crate::error::{Body, Error, Param};
-use crate::lanes::Real;
 use crate::geometry::{
     Mat3, Sym3, Vec3, ZERO3, ZERO33, frame_with_z, rot_z, rpy_matrix, zxz_angles,
 };
+use crate::lanes::Real;
 
 /// Tolerance on the norm of unit vectors and quaternions in inputs: `|‖v‖ − 1| ≤ 1e-6`.
 pub const UNIT_TOLERANCE: f64 = 1e-6;

@@ -80,7 +80,9 @@ pub fn conditioning<const N: usize>(a: &[Vec3; N]) -> f64 {
 
 #[inline(always)]
 fn dot<const N: usize, T: Real>(x: &[T; N], y: &[T; N]) -> T {
-    x.iter().zip(y.iter()).fold(T::ZERO, |s, (a, b)| s + *a * *b)
+    x.iter()
+        .zip(y.iter())
+        .fold(T::ZERO, |s, (a, b)| s + *a * *b)
 }
 
 /// `x ← P x = x − Aᵀ (AAᵀ)⁻¹ A x`.

@@ -43,7 +43,7 @@
 //! `iterations` is the number of generations after it. A feasible particle with
 //! `f ≤ tolerance` stops C-PSO at once, even in the middle of a generation.
 
-use crate::batch::{Batch, Engine, Ended, Portable};
+use crate::batch::{Batch, Ended, Engine, Portable};
 use crate::config::{PlannerConfig, RefineAgainst, Strategy};
 use crate::cpso::Cpso;
 use crate::error::Error;
@@ -239,8 +239,7 @@ impl<const N: usize, const K: usize, const L: usize> Ahead<N, K, L> {
 fn same<const K: usize>(a: &Candidate<K>, b: &Candidate<K>) -> bool {
     a.truth == b.truth
         && a.cap.to_bits() == b.cap.to_bits()
-        && a
-            .eta
+        && a.eta
             .iter()
             .flatten()
             .zip(b.eta.iter().flatten())
@@ -507,7 +506,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
                 Phase::Failed(e) => return Err(e),
                 Phase::Search | Phase::Refine(_) => {}
             }
-            if self.ahead.len > 0 {
+            if L > 1 && self.ahead.len > 0 {
                 self.run_ahead(left, observer);
                 continue;
             }

@@ -173,10 +173,9 @@ impl<const N: usize, const K: usize, T: Real> State<N, K, T> {
         frames: &mut Frames<N, T>,
     ) -> Stepped<T::Mask> {
         euler_step(&mut self.q, qd, dt);
-        let finite = self
-            .q
-            .iter()
-            .fold(T::ONE.finite(), |m, v| crate::lanes::Mask::and(m, v.finite()));
+        let finite = self.q.iter().fold(T::ONE.finite(), |m, v| {
+            crate::lanes::Mask::and(m, v.finite())
+        });
         // Only links and CoM feed H~bm; the end-effector fields stay unused.
         let _ = frames.update_chain(robot, &self.q);
         let conditioned = self.basis.transport_masked(&coupling(robot, frames));
@@ -188,6 +187,19 @@ impl<const N: usize, const K: usize, T: Real> State<N, K, T> {
 }
 
 impl<const N: usize, const K: usize> State<N, K, f64> {
+    /// [`State::step`] of one rollout, compiled once and shared by every kind of scalar
+    /// rollout (with or without a sink or a cap).
+    #[inline(never)]
+    pub(crate) fn step_one(
+        &mut self,
+        robot: &Robot<N>,
+        qd: &[f64; N],
+        dt: f64,
+        frames: &mut Frames<N>,
+    ) -> Stepped<bool> {
+        self.step(robot, qd, dt, frames)
+    }
+
     /// At `q₀` of `task`, nothing folded yet.
     pub(crate) fn start(task: &Task<N, K>) -> Self {
         let q = *task.start();
@@ -419,7 +431,7 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             }) {
                 return Ok(Err(stop));
             }
-            let stepped = self.state.step(robot, &qd, dt, &mut frames);
+            let stepped = self.state.step_one(robot, &qd, dt, &mut frames);
             self.step += 1;
             if !stepped.finite {
                 return Err(Error::NonFiniteState { step: self.step });

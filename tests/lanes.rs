@@ -9,8 +9,8 @@ use common::{paper_task, random_q, random_robot, rng};
 use rand::Rng;
 use reactionless::batch::{Batch, Ended, Lane};
 use reactionless::{
-    Error, Motion, Plan, Planner, PlannerConfig, Pose, Progress, Robot, Rollout, Status,
-    Strategy, Task,
+    Error, Motion, Plan, Planner, PlannerConfig, Pose, Progress, Robot, Rollout, Status, Strategy,
+    Task,
 };
 
 /// How the scalar rollout of `eta` with violation cap `cap` ends, as a lane reports it.
@@ -81,13 +81,18 @@ fn random_etas<const K: usize>(seed: u64, count: usize) -> Vec<([[f64; 2]; K], f
     let mut r = rng(seed);
     (0..count)
         .map(|i| {
-            let eta = core::array::from_fn(|_| [r.random_range(-5.0..5.0), r.random_range(-5.0..5.0)]);
+            let eta =
+                core::array::from_fn(|_| [r.random_range(-5.0..5.0), r.random_range(-5.0..5.0)]);
             // Every third one capped (some abandon), one rejected (η = 0).
             let cap = match i % 3 {
                 0 => r.random_range(0.0..0.2),
                 _ => f64::INFINITY,
             };
-            if i == 5 { ([[0.0; 2]; K], cap) } else { (eta, cap) }
+            if i == 5 {
+                ([[0.0; 2]; K], cap)
+            } else {
+                (eta, cap)
+            }
         })
         .collect()
 }
@@ -99,11 +104,25 @@ fn check_lanes<const N: usize, const K: usize>(task: &Task<N, K>, seed: u64) -> 
     assert!(want.iter().any(|e| matches!(e, Ended::Done(_))));
     assert!(want.iter().any(|e| matches!(e, Ended::Failed(_))));
     for (slice, l2, l4, l8) in [
-        (u32::MAX, through_lanes::<N, K, 2>(task, &etas, u32::MAX, seed), through_lanes::<N, K, 4>(task, &etas, u32::MAX, seed), through_lanes::<N, K, 8>(task, &etas, u32::MAX, seed)),
-        (37, through_lanes::<N, K, 2>(task, &etas, 37, seed), through_lanes::<N, K, 4>(task, &etas, 37, seed), through_lanes::<N, K, 8>(task, &etas, 37, seed)),
+        (
+            u32::MAX,
+            through_lanes::<N, K, 2>(task, &etas, u32::MAX, seed),
+            through_lanes::<N, K, 4>(task, &etas, u32::MAX, seed),
+            through_lanes::<N, K, 8>(task, &etas, u32::MAX, seed),
+        ),
+        (
+            37,
+            through_lanes::<N, K, 2>(task, &etas, 37, seed),
+            through_lanes::<N, K, 4>(task, &etas, 37, seed),
+            through_lanes::<N, K, 8>(task, &etas, 37, seed),
+        ),
     ] {
         for (i, w) in want.iter().enumerate() {
-            assert!(same(&l2[i], w), "N={N} L=2 slice {slice} η #{i}: {:?} vs {w:?}", l2[i]);
+            assert!(
+                same(&l2[i], w),
+                "N={N} L=2 slice {slice} η #{i}: {:?} vs {w:?}",
+                l2[i]
+            );
             assert!(same(&l4[i], w), "N={N} L=4 slice {slice} η #{i}");
             assert!(same(&l8[i], w), "N={N} L=8 slice {slice} η #{i}");
         }
@@ -120,7 +139,10 @@ fn random_task<const N: usize, const K: usize>(seed: u64) -> Task<N, K> {
     let desc = random_robot::<N>(&mut r);
     let q0 = random_q(&mut r, &desc);
     let robot = Robot::new(&desc).unwrap();
-    let target = Pose { position: [1.0, 0.2, -0.3], quat_wxyz: [1.0, 0.0, 0.0, 0.0] };
+    let target = Pose {
+        position: [1.0, 0.2, -0.3],
+        quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+    };
     Task::new(robot, q0, target, Motion::new(4.0, 0.01, 1).unwrap()).unwrap()
 }
 
@@ -134,7 +156,10 @@ fn every_lane_is_the_scalar_rollout_bit_for_bit() {
         + check_lanes(&random_task::<6, 3>(2), 2)
         + check_lanes(&random_task::<9, 6>(3), 3)
         + check_lanes(&random_task::<12, 9>(4), 4);
-    assert!(abandoned > 0, "no lane was abandoned: the caps are not exercised");
+    assert!(
+        abandoned > 0,
+        "no lane was abandoned: the caps are not exercised"
+    );
 }
 
 /// A lane whose rollout fails (here a state that overflows) reports the scalar error at the
@@ -147,12 +172,29 @@ fn a_failing_lane_reports_the_scalar_error_at_the_scalar_step() {
         j.velocity = 1e305;
     }
     let robot = Robot::new(&d).unwrap();
-    let target = Pose { position: [2.0, 0.1, -1.4], quat_wxyz: [1.0, 0.0, 0.0, 0.0] };
-    let task: Task<7, 4> =
-        Task::new(robot, common::q0(), target, Motion::new(1e7, 1e6, 1).unwrap()).unwrap();
-    let etas: Vec<_> = random_etas::<4>(11, 9).into_iter().map(|(e, _)| (e, f64::INFINITY)).collect();
+    let target = Pose {
+        position: [2.0, 0.1, -1.4],
+        quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+    };
+    let task: Task<7, 4> = Task::new(
+        robot,
+        common::q0(),
+        target,
+        Motion::new(1e7, 1e6, 1).unwrap(),
+    )
+    .unwrap();
+    let etas: Vec<_> = random_etas::<4>(11, 9)
+        .into_iter()
+        .map(|(e, _)| (e, f64::INFINITY))
+        .collect();
     let want: Vec<_> = etas.iter().map(|(e, c)| scalar(&task, e, *c)).collect();
-    assert!(want.iter().filter(|e| matches!(e, Ended::Failed(Error::NonFiniteState { .. }))).count() >= 4, "{want:?}");
+    assert!(
+        want.iter()
+            .filter(|e| matches!(e, Ended::Failed(Error::NonFiniteState { .. })))
+            .count()
+            >= 4,
+        "{want:?}"
+    );
     for got in [
         through_lanes::<7, 4, 2>(&task, &etas, 1, 9),
         through_lanes::<7, 4, 4>(&task, &etas, 3, 9),
@@ -167,10 +209,7 @@ type P1 = Planner<7, 4, 64>;
 type P2 = Planner<7, 4, 64, 2>;
 type P4 = Planner<7, 4, 64, 4>;
 
-fn plan_with<const L: usize>(
-    cfg: PlannerConfig,
-    budget: u32,
-) -> (Plan<7, 4>, u64) {
+fn plan_with<const L: usize>(cfg: PlannerConfig, budget: u32) -> (Plan<7, 4>, u64) {
     let mut p: Planner<7, 4, 64, L> = Planner::new(paper_task(), cfg).unwrap();
     loop {
         if let Status::Finished(plan) = p.step(budget, &mut ()).unwrap() {

@@ -38,7 +38,13 @@ enum Command {
 /// Parses the command line, runs the subcommand, maps the result to the exit code (0
 /// success, 1 a result that does not pass, 2 bad input).
 pub fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    // A bad REACTIONLESS_ISA is bad input, whatever the subcommand.
+    if let Err(e) = reactionless_simd::Isa::from_env() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    let result = match cli.command {
         Command::Model(a) => a.run(),
         Command::Rollout(a) => a.run(),
         Command::Plan(a) => a.run(),

@@ -123,8 +123,10 @@ fn check_fails_a_trajectory_that_breaks_a_limit_or_the_disturbance_threshold() {
 
 // --- record / replay -----------------------------------------------------------------
 
-/// Every golden record in tests/records replays bit for bit.
-/// Verifies RL-PSO-010, RL-PLAN-004, RL-CORE-008, RL-SIM-REC-003.
+/// Every golden record in tests/records replays bit for bit, with the planner's lanes in
+/// each build of the kernel forced in turn (the SSE2 baseline, and AVX2 where this CPU has
+/// it; `REACTIONLESS_ISA`), and a bad `REACTIONLESS_ISA` is bad input.
+/// Verifies RL-PSO-010, RL-PLAN-004, RL-CORE-008, RL-SIM-REC-003, RL-LANE-004.
 #[test]
 fn golden_records_replay_bit_for_bit() {
     let mut records: Vec<PathBuf> = std::fs::read_dir(root().join("tests/records"))
@@ -134,12 +136,30 @@ fn golden_records_replay_bit_for_bit() {
         .collect();
     records.sort();
     assert!(records.len() >= 5, "{records:?}");
-    let mut c = host_sim();
-    c.arg("replay").args(&records);
-    let o = c.output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
-    assert_eq!(err.matches("identical").count(), records.len(), "{err}");
+    let mut isas = vec!["auto", "sse2"];
+    if reactionless_simd::Isa::Avx2.available() {
+        isas.push("avx2");
+    }
+    for isa in isas {
+        let mut c = host_sim();
+        c.env("REACTIONLESS_ISA", isa).arg("replay").args(&records);
+        let o = c.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{isa}: {err}");
+        assert_eq!(
+            err.matches("identical").count(),
+            records.len(),
+            "{isa}: {err}"
+        );
+    }
+    let o = host_sim()
+        .env("REACTIONLESS_ISA", "avx512")
+        .arg("replay")
+        .args(&records)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("REACTIONLESS_ISA=avx512"));
 }
 
 /// `record` writes a record that replays; a changed η bit, digest or URDF is named (exit

@@ -30,6 +30,11 @@
 
 use reactionless::Task;
 use reactionless::batch::{Batch, Engine};
+use std::sync::OnceLock;
+
+/// The environment variable that overrides the build [`Native`] runs: `auto` (the
+/// default: the widest this CPU runs), `sse2` (the baseline) or `avx2`.
+pub const ISA_VARIABLE: &str = "REACTIONLESS_ISA";
 
 /// A build of the lane kernel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,11 +48,51 @@ pub enum Isa {
 impl Isa {
     /// The widest build this CPU runs.
     #[must_use]
-    pub fn native() -> Self {
+    pub fn widest() -> Self {
         if Self::Avx2.available() {
             Self::Avx2
         } else {
             Self::Baseline
+        }
+    }
+
+    /// The build [`Native`] runs: [`ISA_VARIABLE`] if it names one this CPU runs, else
+    /// [`Isa::widest`]. Read once per process.
+    #[must_use]
+    pub fn native() -> Self {
+        static CHOSEN: OnceLock<Isa> = OnceLock::new();
+        *CHOSEN.get_or_init(|| match Self::from_env() {
+            Ok(Some(isa)) if isa.available() => isa,
+            _ => Self::widest(),
+        })
+    }
+
+    /// The build [`ISA_VARIABLE`] asks for (`None`: unset or `auto`).
+    ///
+    /// # Errors
+    /// A value other than `auto`, `sse2` or `avx2`, or `avx2` on a CPU without it: a
+    /// message naming the variable and the value.
+    pub fn from_env() -> Result<Option<Self>, String> {
+        let Ok(v) = std::env::var(ISA_VARIABLE) else {
+            return Ok(None);
+        };
+        let isa = match v.as_str() {
+            "" | "auto" => return Ok(None),
+            "sse2" | "baseline" => Self::Baseline,
+            "avx2" => Self::Avx2,
+            other => {
+                return Err(format!(
+                    "{ISA_VARIABLE}={other}: expected auto, sse2 or avx2"
+                ));
+            }
+        };
+        if isa.available() {
+            Ok(Some(isa))
+        } else {
+            Err(format!(
+                "{ISA_VARIABLE}={v}: this CPU does not run {}",
+                isa.name()
+            ))
         }
     }
 
@@ -135,8 +180,8 @@ mod x86 {
     }
 }
 
-/// The widest build this CPU runs ([`Isa::native`]), chosen at run time (detected once and
-/// cached by the standard library).
+/// The widest build this CPU runs, chosen at run time, or the one [`ISA_VARIABLE`] names
+/// ([`Isa::native`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Native;
 

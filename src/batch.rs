@@ -25,8 +25,8 @@
 
 use crate::error::{Error, RankLoss};
 use crate::kinematics::Frames;
-use crate::lanes::Lanes;
-use crate::rollout::{Outcome, Rollout, State};
+use crate::lanes::{LaneMask, Lanes, Mask};
+use crate::rollout::{Outcome, Rollout, State, Stepped};
 use crate::task::Task;
 use crate::trajectory::TimeLaw;
 use core::fmt::Debug;
@@ -263,11 +263,15 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
         let robot = task.robot();
         let dt = motion.dt();
         let steps = motion.steps();
+        if lane_steps == 0 {
+            return 0;
+        }
         let moving = |l: &Lane<N, K>, h: bool| !h && matches!(l, Lane::Running { .. });
         let capped = self
             .lanes
             .iter()
-            .any(|l| matches!(l, Lane::Running { cap, .. } if *cap < f64::INFINITY));
+            .zip(hold)
+            .any(|(l, h)| !h && matches!(l, Lane::Running { cap, .. } if *cap < f64::INFINITY));
         let holding = self
             .lanes
             .iter()
@@ -277,65 +281,52 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
             // Nothing would move: no work, and nothing would ever end the loop.
             return 0;
         }
-        let mut frames = Frames::<N, Lanes<L>>::IDLE;
-        let mut done = 0u32;
-        let mut work = 0u32;
-        while done < lane_steps {
-            let saved = if holding { Some(self.state) } else { None };
-            let mut t = Lanes([0.0; L]);
-            for (i, lane) in self.lanes.iter().enumerate() {
-                if let Lane::Running { step, .. } = lane {
-                    t.set(i, motion.time(*step));
+        // Per lane: its step (as f64, exact; 0 where nothing runs), 1 where it moves, its
+        // cap; and the lane-steps until the first moving lane reaches `S`.
+        let mut at = Lanes([0.0; L]);
+        let mut inc = Lanes([0.0; L]);
+        let mut caps = Lanes([f64::INFINITY; L]);
+        let mut until = u32::MAX;
+        let mut movers = 0u32;
+        for (i, (lane, h)) in self.lanes.iter().zip(hold).enumerate() {
+            if let Lane::Running { step, cap, .. } = lane {
+                at.set(i, f64::from(*step));
+                if !h {
+                    inc.set(i, 1.0);
+                    caps.set(i, *cap);
+                    until = until.min(steps.saturating_sub(*step));
+                    movers += 1;
                 }
             }
+        }
+        let mut frames = Frames::<N, Lanes<L>>::IDLE;
+        let mut done = 0u32;
+        loop {
+            let saved = if holding { Some(self.state) } else { None };
+            // t_s = s·dt, as `Motion::time` computes it (s < S here).
+            let t = at * dt;
             let qd = self.state.rates(&self.ab, self.inv_g, motion, t);
             self.state.fold(&qd);
             let phi = capped.then(|| robot.violation_of(&self.state.q_min, &self.state.q_max));
             let stepped = self.state.step(robot, &qd, dt, &mut frames);
             done += 1;
-            let mut ended = [false; L];
-            for (i, ((lane, h), e)) in self
-                .lanes
-                .iter_mut()
-                .zip(hold)
-                .zip(ended.iter_mut())
-                .enumerate()
-            {
-                if !moving(lane, h) {
-                    continue;
+            // The common lane-step: nothing holds, ends, fails or passes its cap.
+            let quiet = !holding
+                && done < until
+                && stepped.finite.all()
+                && stepped.conditioned.coupling.all()
+                && stepped.conditioned.basis.all()
+                && phi.is_none_or(|p| !p.0.iter().zip(caps.0).any(|(p, c)| *p > c));
+            if quiet {
+                at += inc;
+                if done >= lane_steps {
+                    self.sync_steps(at, hold);
+                    break;
                 }
-                work += 1;
-                let Lane::Running { law, step, cap } = lane else {
-                    continue;
-                };
-                let phi_i = phi.map_or(0.0, |p| p.lane(i));
-                let next = if *cap < f64::INFINITY && phi_i > *cap {
-                    Some(Ended::Abandoned {
-                        step: *step,
-                        phi: phi_i,
-                    })
-                } else {
-                    *step += 1;
-                    let lane_of = |m: crate::lanes::LaneMask<L>| m.lane(i);
-                    let rank = |cause| Ended::Failed(Error::RankLoss { step: *step, cause });
-                    if !lane_of(stepped.finite) {
-                        Some(Ended::Failed(Error::NonFiniteState { step: *step }))
-                    } else if !lane_of(stepped.conditioned.coupling) {
-                        Some(rank(RankLoss::Coupling))
-                    } else if !lane_of(stepped.conditioned.basis) {
-                        Some(rank(RankLoss::Basis))
-                    } else if *step >= steps {
-                        let mut r = Rollout::resume(*law, *step, self.state.lane(i));
-                        Some(Ended::Done(r.conclude(task, &mut ())))
-                    } else {
-                        None
-                    }
-                };
-                if let Some(end) = next {
-                    *lane = Lane::Ended(end);
-                    *e = true;
-                }
+                continue;
             }
+            self.sync_steps(at, hold);
+            self.settle(task, &stepped, phi, hold);
             if let Some(saved) = saved {
                 for (i, (lane, h)) in self.lanes.iter().zip(hold).enumerate() {
                     if h && matches!(lane, Lane::Running { .. }) {
@@ -343,18 +334,83 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
                     }
                 }
             }
-            if ended.iter().any(|e| *e) {
-                for (i, _) in ended.iter().enumerate().filter(|(_, e)| **e) {
-                    // At rest, keeping how it ended.
-                    let kept = self.lanes.get(i).copied();
-                    self.park(i, task);
-                    if let (Some(l), Some(k)) = (self.lanes.get_mut(i), kept) {
-                        *l = k;
-                    }
-                }
-                break;
+            break;
+        }
+        movers * done
+    }
+
+    /// Writes the lanes' step counters `at` back into the moving lanes.
+    #[inline(always)]
+    fn sync_steps(&mut self, at: Lanes<L>, hold: [bool; L]) {
+        for (i, (lane, h)) in self.lanes.iter_mut().zip(hold).enumerate() {
+            if let Lane::Running { step, .. } = lane
+                && !h
+            {
+                *step = at.lane(i) as u32;
             }
         }
-        work
+    }
+
+    /// After a lane-step in which something happened: each moving lane, as the scalar
+    /// rollout would take its step (abandoned at its cap, failed, finished, or one step
+    /// further); lanes that ended are put at rest.
+    #[inline(always)]
+    fn settle(
+        &mut self,
+        task: &Task<N, K>,
+        stepped: &Stepped<LaneMask<L>>,
+        phi: Option<Lanes<L>>,
+        hold: [bool; L],
+    ) {
+        let steps = task.motion().steps();
+        let mut ended = [false; L];
+        for (i, ((lane, h), e)) in self
+            .lanes
+            .iter_mut()
+            .zip(hold)
+            .zip(ended.iter_mut())
+            .enumerate()
+        {
+            if h {
+                continue;
+            }
+            let Lane::Running { law, step, cap } = lane else {
+                continue;
+            };
+            let phi_i = phi.map_or(0.0, |p| p.lane(i));
+            let next = if *cap < f64::INFINITY && phi_i > *cap {
+                Some(Ended::Abandoned {
+                    step: *step,
+                    phi: phi_i,
+                })
+            } else {
+                *step += 1;
+                let rank = |cause| Ended::Failed(Error::RankLoss { step: *step, cause });
+                if !stepped.finite.lane(i) {
+                    Some(Ended::Failed(Error::NonFiniteState { step: *step }))
+                } else if !stepped.conditioned.coupling.lane(i) {
+                    Some(rank(RankLoss::Coupling))
+                } else if !stepped.conditioned.basis.lane(i) {
+                    Some(rank(RankLoss::Basis))
+                } else if *step >= steps {
+                    let mut r = Rollout::resume(*law, *step, self.state.lane(i));
+                    Some(Ended::Done(r.conclude(task, &mut ())))
+                } else {
+                    None
+                }
+            };
+            if let Some(end) = next {
+                *lane = Lane::Ended(end);
+                *e = true;
+            }
+        }
+        for (i, _) in ended.iter().enumerate().filter(|(_, e)| **e) {
+            // At rest, keeping how it ended.
+            let kept = self.lanes.get(i).copied();
+            self.park(i, task);
+            if let (Some(l), Some(k)) = (self.lanes.get_mut(i), kept) {
+                *l = k;
+            }
+        }
     }
 }

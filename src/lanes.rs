@@ -44,7 +44,9 @@ impl Mask for bool {
 }
 
 /// The mask of [`Lanes`]: all ones (`true`) or all zeros (`false`) per lane, the form a
-/// vector comparison produces, so that masks stay in vector registers.
+/// vector comparison produces. [`Mask::all`] is an `and`-reduction, which the compiler
+/// keeps in vector registers (a short-circuiting test would make it split the comparisons,
+/// and what feeds them, into per-lane scalar code).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LaneMask<const L: usize>(pub [u64; L]);
 
@@ -67,7 +69,7 @@ impl<const L: usize> Mask for LaneMask<L> {
     }
     #[inline(always)]
     fn all(self) -> bool {
-        self.0.iter().all(|v| *v != 0)
+        self.0.iter().fold(u64::MAX, |m, v| m & v) != 0
     }
 }
 
@@ -210,7 +212,7 @@ impl<const L: usize> Lanes<L> {
     fn test(self, o: Self, f: impl Fn(f64, f64) -> bool) -> LaneMask<L> {
         let mut m = [0; L];
         for ((m, a), b) in m.iter_mut().zip(self.0).zip(o.0) {
-            *m = 0u64.wrapping_sub(u64::from(f(a, b)));
+            *m = if f(a, b) { u64::MAX } else { 0 };
         }
         LaneMask(m)
     }
@@ -315,7 +317,8 @@ impl<const L: usize> Real for Lanes<L> {
     }
     #[inline(always)]
     fn finite(self) -> LaneMask<L> {
-        self.test(self, |a, _| a.is_finite())
+        // x − x is 0 for a finite x and NaN otherwise: one subtraction and one comparison.
+        (self - self).test(Self::ZERO, |d, z| d == z)
     }
 }
 
@@ -393,28 +396,29 @@ const fn bound(h: u64) -> f64 {
 pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
     let x = x.0;
     let ax = each(x, |v| f64::from_bits(v.to_bits() & !(1 << 63)));
-    // rem_pio2's quadrants: k = 1 up to the high word 0x4002d97c, 2 up to 0x400f6a7a,
-    // 3 up to 0x4015fdbc, 4 up to 0x401c463b; 0 beyond, and in the four windows (high
-    // words 0x3ff921fb, 0x400921fb, 0x4012d97c, 0x401921fb) where libm reduces otherwise.
-    // Branch-free (`&`, `|` and selects, no short-circuit), so that it vectorises.
+    // Small: |x| ≤ π/4 (high word ≤ 0x3fe921fb): k = 0. Otherwise rem_pio2's quadrant:
+    // k = 1 up to the high word 0x4002d97c, 2 up to 0x400f6a7a, 3 up to 0x4015fdbc, 4 up
+    // to 0x401c463b. Branch-free (`&`, `|` and selects, no short-circuit), so that it
+    // vectorises.
+    let small_bound = bound(0x3fe9_21fc);
     let k = each(ax, |a| {
         let step = |h: u64| if a >= bound(h) { 1.0 } else { 0.0 };
-        let window = |h: u64| (a >= bound(h)) & (a < bound(h + 1));
         let k = 1.0 + step(0x4002_d97d) + step(0x400f_6a7b) + step(0x4015_fdbd);
+        if a < small_bound { 0.0 } else { k }
+    });
+    // Elsewhere: beyond 9π/4 (infinite, NaN), or in the four windows where rem_pio2
+    // reduces otherwise (high words 0x3ff921fb, 0x400921fb, 0x4012d97c, 0x401921fb).
+    let elsewhere = each(ax, |a| {
+        let window = |h: u64| (a >= bound(h)) & (a < bound(h + 1));
         let windowed = window(0x3ff9_21fb)
             | window(0x4009_21fb)
             | window(0x4012_d97c)
             | window(0x4019_21fb)
-            | !(a < bound(0x401c_463c)); // beyond 9π/4, infinite or NaN
-        if windowed { 0.0 } else { k }
-    });
-    // Small: |x| ≤ π/4 (high word ≤ 0x3fe921fb).
-    let small_bound = bound(0x3fe9_21fc);
-    let elsewhere = each2(ax, k, |a, k| {
-        if (a < small_bound) | (k != 0.0) {
-            0.0
-        } else {
+            | !(a < bound(0x401c_463c));
+        if !(a < small_bound) & windowed {
             1.0
+        } else {
+            0.0
         }
     });
     if L == 1 || elsewhere.iter().any(|e| *e != 0.0) {
@@ -426,27 +430,20 @@ pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
     }
     // n = ±k (the sign of x). (−k)·p = −(k·p) exactly, and x − (−k·p) is libm's x + k·p:
     // the reduction y0 = (x − k·pio2_1) − k·pio2_1t, y1 = ((x − k·pio2_1) − y0) − k·pio2_1t.
+    // With k = 0 (small |x|, never 0: that is tiny) it gives libm's unreduced (x, +0).
     let n = each2(x, k, |v, k| if v < 0.0 { -k } else { k });
     let z = each2(x, n, |v, n| v - n * PIO2_1);
-    let y0_red = each2(z, n, |z, n| z - n * PIO2_1T);
-    let y1_red = each3(z, y0_red, n, |z, y, n| (z - y) - n * PIO2_1T);
-    // The kernels on (x, 0) where small, on (y0, y1) elsewhere.
-    let y0 = each3(ax, x, y0_red, |a, v, y| if a < small_bound { v } else { y });
-    let y1 = each2(ax, y1_red, |a, y| if a < small_bound { 0.0 } else { y });
+    let y0 = each2(z, n, |z, n| z - n * PIO2_1T);
+    let y1 = each3(z, y0, n, |z, y, n| (z - y) - n * PIO2_1T);
     let zz = each(y0, |v| v * v);
     let ww = each(zz, |z| z * z);
     let rs = each2(zz, ww, |z, w| {
         S2 + z * (S3 + z * S4) + z * w * (S5 + z * S6)
     });
     let v = each2(zz, y0, |z, x| z * x);
-    let sin = if ax.iter().all(|a| *a < small_bound) {
-        sin_unreduced(y0, zz, v, rs)
-    } else if ax.iter().all(|a| *a >= small_bound) {
-        sin_reduced(y0, y1, zz, v, rs)
-    } else {
-        let (u, r) = (sin_unreduced(y0, zz, v, rs), sin_reduced(y0, y1, zz, v, rs));
-        each3(ax, u, r, |a, u, r| if a < small_bound { u } else { r })
-    };
+    // k_sin's branch: iy = 0 where small, 1 elsewhere.
+    let (u, r) = (sin_unreduced(y0, zz, v, rs), sin_reduced(y0, y1, zz, v, rs));
+    let sin = each3(k, u, r, |k, u, r| if k == 0.0 { u } else { r });
     let cos = each3(y0, y1, zz, |x, y, z| {
         let w = z * z;
         let r = z * (C1 + z * (C2 + z * C3)) + w * w * (C4 + z * (C5 + z * C6));
@@ -455,13 +452,9 @@ pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
         w + (((1.0 - w) - hz) + (z * r - x * y))
     });
     // Quadrant q = n mod 4 (0 where small): (s, c), (c, −s), (−s, −c), (−c, s).
-    let q = each2(ax, n, |a, n| {
+    let q = each(n, |n| {
         let q = if n < 0.0 { n + 4.0 } else { n };
-        if (a < small_bound) | (q == 4.0) {
-            0.0
-        } else {
-            q
-        }
+        if q == 4.0 { 0.0 } else { q }
     });
     let s_out = each3(q, sin, cos, |q, s, c| {
         let v = if (q == 1.0) | (q == 3.0) { c } else { s };

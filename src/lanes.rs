@@ -408,14 +408,12 @@ pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
     });
     // Elsewhere: beyond 9π/4 (infinite, NaN), or in the four windows where rem_pio2
     // reduces otherwise (high words 0x3ff921fb, 0x400921fb, 0x4012d97c, 0x401921fb).
+    // The windows by their high words: 0x3ff921fb, 0x400921fb and 0x401921fb share the
+    // low 20 bits 0x921fb (no other high word of the reduced range does).
     let elsewhere = each(ax, |a| {
-        let window = |h: u64| (a >= bound(h)) & (a < bound(h + 1));
-        let windowed = window(0x3ff9_21fb)
-            | window(0x4009_21fb)
-            | window(0x4012_d97c)
-            | window(0x4019_21fb)
-            | !(a < bound(0x401c_463c));
-        if !(a < small_bound) & windowed {
+        let hi = a.to_bits() >> 32;
+        let windowed = ((hi & 0xfffff) == 0x921fb) | (hi == 0x4012_d97c);
+        if !(a < small_bound) & (windowed | !(a < bound(0x401c_463c))) {
             1.0
         } else {
             0.0

@@ -318,24 +318,42 @@ impl<const L: usize> Real for Lanes<L> {
     #[inline(always)]
     fn finite(self) -> LaneMask<L> {
         // x − x is 0 for a finite x and NaN otherwise: one subtraction and one comparison.
-        (self - self).test(Self::ZERO, |d, z| d == z)
+        #[allow(clippy::eq_op)]
+        let d = self - self;
+        d.test(Self::ZERO, |d, z| d == z)
     }
 }
 
-// libm 0.2's constants (FreeBSD msun: s_sin.c, k_sin.c, k_cos.c, e_rem_pio2.c).
+// libm 0.2's constants (FreeBSD msun: s_sin.c, k_sin.c, k_cos.c, e_rem_pio2.c), written
+// digit for digit as there so they can be compared with the source; each parses to the
+// same double as its shortest form.
+#[allow(clippy::excessive_precision)]
 const PIO2_1: f64 = 1.570_796_326_734_125_614_17e0;
+#[allow(clippy::excessive_precision)]
 const PIO2_1T: f64 = 6.077_100_506_506_192_249_32e-11;
+#[allow(clippy::excessive_precision)]
 const S1: f64 = -1.666_666_666_666_663_243_48e-1;
+#[allow(clippy::excessive_precision)]
 const S2: f64 = 8.333_333_333_322_489_461_24e-3;
+#[allow(clippy::excessive_precision)]
 const S3: f64 = -1.984_126_982_985_794_931_34e-4;
+#[allow(clippy::excessive_precision)]
 const S4: f64 = 2.755_731_370_707_006_767_89e-6;
+#[allow(clippy::excessive_precision)]
 const S5: f64 = -2.505_076_025_340_686_341_95e-8;
+#[allow(clippy::excessive_precision)]
 const S6: f64 = 1.589_690_995_211_550_102_21e-10;
+#[allow(clippy::excessive_precision)]
 const C1: f64 = 4.166_666_666_666_660_190_37e-2;
+#[allow(clippy::excessive_precision)]
 const C2: f64 = -1.388_888_888_887_410_957_49e-3;
+#[allow(clippy::excessive_precision)]
 const C3: f64 = 2.480_158_728_947_672_941_78e-5;
+#[allow(clippy::excessive_precision)]
 const C4: f64 = -2.755_731_435_139_066_330_35e-7;
+#[allow(clippy::excessive_precision)]
 const C5: f64 = 2.087_572_321_298_174_827_90e-9;
+#[allow(clippy::excessive_precision)]
 const C6: f64 = -1.135_964_755_778_819_482_65e-11;
 
 /// `f(x_i)` for every lane.
@@ -413,7 +431,9 @@ pub fn sincos_lanes<const L: usize>(x: Lanes<L>) -> (Lanes<L>, Lanes<L>) {
     let elsewhere = each(ax, |a| {
         let hi = a.to_bits() >> 32;
         let windowed = ((hi & 0xfffff) == 0x921fb) | (hi == 0x4012_d97c);
-        if !(a < small_bound) & (windowed | !(a < bound(0x401c_463c))) {
+        // `a >= b | nan` is `!(a < b)`: a NaN is elsewhere.
+        let nan = a.is_nan();
+        if ((a >= small_bound) | nan) & (windowed | (a >= bound(0x401c_463c)) | nan) {
             1.0
         } else {
             0.0

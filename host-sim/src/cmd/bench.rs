@@ -2,8 +2,13 @@
 //!
 //! `step_ns`: median over single-rollout slices of 100 integration steps, divided by 100.
 //! `rollout_us`: median of 21 full rollouts. `plan_s_median`, `plan_iterations_median`,
-//! `plan_rollouts_median`: over seeds 1..=10 with the task's planner settings. The η timed
-//! for steps and rollouts is the seed-1 plan's.
+//! `plan_rollouts_median`: over seeds 1..=10 with the task's planner settings (host-sim's
+//! planner: candidates in lanes). The η timed for steps and rollouts is the seed-1 plan's.
+//!
+//! `lanes`: rollouts integrated side by side ([`reactionless::batch`]) in the build of the
+//! kernel this CPU runs (`isa`), for 2 and 4 lanes: the η of the plans of seeds 1..L, one
+//! per lane; per rollout-equivalent (the time of L rollouts divided by L), the median of 21
+//! runs, and the throughput against the scalar rollout (`speedup`).
 
 use crate::args::parse_strategy;
 use crate::drive::{self, HOST_CAPACITY};
@@ -11,7 +16,9 @@ use crate::error::{CliError, Context};
 use crate::stats::median;
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
+use reactionless::batch::{Batch, Engine};
 use reactionless::{Progress, Rollout, Strategy};
+use reactionless_simd::{Isa, Native};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -37,6 +44,23 @@ pub struct BenchJson {
     pub plan_converged: u32,
     /// One entry per seed.
     pub plans: Vec<PlanRun>,
+    /// The build of the lane kernel that ran (`sse2`, `avx2`).
+    pub isa: String,
+    /// Rollouts in lanes, per rollout-equivalent.
+    pub lanes: Vec<LanesRun>,
+}
+
+/// Rollouts integrated side by side.
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+pub struct LanesRun {
+    /// Lanes (rollouts in lockstep).
+    pub lanes: usize,
+    /// Median time of L full rollouts, divided by L (µs).
+    pub rollout_us: f64,
+    /// The same per integration step (ns).
+    pub step_ns: f64,
+    /// `rollout_us` of the scalar rollout divided by this one.
+    pub speedup: f64,
 }
 
 /// One timed plan.
@@ -99,8 +123,36 @@ fn run(task_path: &Path, json: bool, strategy: Option<Strategy>) -> Result<(), C
             report.plan_rollouts_median
         );
         println!("converged       {:10}    of 10", report.plan_converged);
+        for l in &report.lanes {
+            println!(
+                "{} lanes ({})   {:10.1} µs per rollout ({:.1} ns per step), {:.2}x the scalar rollout",
+                l.lanes, report.isa, l.rollout_us, l.step_ns, l.speedup
+            );
+        }
     }
     Ok(())
+}
+
+/// Median time of `L` rollouts of `etas` (the first `L`) side by side, divided by `L` (µs).
+fn time_lanes<const N: usize, const K: usize, const L: usize>(
+    task: &reactionless::Task<N, K>,
+    etas: &[[[f64; 2]; K]],
+) -> Result<f64, CliError> {
+    let mut per = Vec::new();
+    for _ in 0..21 {
+        let mut b: Batch<N, K, L> = Batch::new(task);
+        for (i, eta) in etas.iter().take(L).enumerate() {
+            b.load(i, task, eta, f64::INFINITY)
+                .or_failed(|| "rollout")?;
+        }
+        let start = Instant::now();
+        while b.running() > 0 {
+            Native::run(&mut b, task, u32::MAX, [false; L]);
+        }
+        per.push(start.elapsed().as_secs_f64() * 1e6 / L as f64);
+        std::hint::black_box(b.take(0));
+    }
+    Ok(median(&per))
 }
 
 fn bench_n<const N: usize, const K: usize>(
@@ -110,6 +162,7 @@ fn bench_n<const N: usize, const K: usize>(
     let task = lt.task::<N, K>()?;
     let mut plans = Vec::new();
     let mut eta = None;
+    let mut etas = Vec::new();
     // Seed 1 twice: the first run is the warm-up and provides the η timed below.
     for seed in std::iter::once(1).chain(1..=10) {
         let config = lt.planner(
@@ -126,6 +179,7 @@ fn bench_n<const N: usize, const K: usize>(
             eta = Some(p.eta);
             continue;
         }
+        etas.push(p.eta);
         plans.push(PlanRun {
             seed,
             wall_time_s: done.seconds,
@@ -154,11 +208,22 @@ fn bench_n<const N: usize, const K: usize>(
             }
         }
     }
+    let rollout_us = median(&per_rollout);
+    let lane = |lanes: usize, us: f64| LanesRun {
+        lanes,
+        rollout_us: us,
+        step_ns: us * 1e3 / f64::from(steps),
+        speedup: rollout_us / us,
+    };
+    let lanes = vec![
+        lane(2, time_lanes::<N, K, 2>(&task, &etas)?),
+        lane(4, time_lanes::<N, K, 4>(&task, &etas)?),
+    ];
     Ok(BenchJson {
         n: N,
         steps_per_rollout: steps,
         step_ns: median(&per_step),
-        rollout_us: median(&per_rollout),
+        rollout_us,
         plan_s_median: median(&plans.iter().map(|p| p.wall_time_s).collect::<Vec<_>>()),
         plan_iterations_median: median(
             &plans
@@ -174,5 +239,7 @@ fn bench_n<const N: usize, const K: usize>(
         ),
         plan_converged: plans.iter().filter(|p| p.converged).count() as u32,
         plans,
+        isa: Isa::native().name().to_string(),
+        lanes,
     })
 }

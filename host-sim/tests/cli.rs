@@ -445,6 +445,9 @@ fn plan_converges_writes_everything_and_refines() {
         assert!(p.get(key).is_some(), "plan.json lacks {key}");
     }
     // Finished rollouts cost 3000 steps each, abandoned ones fewer (seed 2 abandons some).
+    // host-sim plans in 4 lanes: candidates integrated ahead that the search then no longer
+    // asks for (at most L − 1 = 3 when the search ends, and again when the refinement ends)
+    // count in the integration steps but not in the rollouts.
     let rollouts = p["rollouts"].as_u64().unwrap();
     let abandoned = p["abandoned_rollouts"].as_u64().unwrap();
     let steps = p["integration_steps"].as_u64().unwrap();
@@ -453,7 +456,7 @@ fn plan_converges_writes_everything_and_refines() {
         "{abandoned} of {rollouts}"
     );
     assert!(
-        steps > (rollouts - abandoned) * 3000 && steps < rollouts * 3000,
+        steps > (rollouts - abandoned) * 3000 && steps < (rollouts + 6) * 3000,
         "{steps}"
     );
     assert_eq!(p["eta"].as_array().unwrap().len(), 8);

@@ -13,9 +13,12 @@
 
 pub mod args;
 pub mod artifacts;
+pub mod campaign_report;
 pub mod cli;
 pub mod cmd;
 pub mod dispatch;
+pub mod dispersion;
+pub mod dispersion_report;
 pub mod drive;
 pub mod error;
 pub mod flight;
@@ -23,6 +26,7 @@ pub mod output;
 pub mod plots;
 pub mod records;
 pub mod retiming;
+pub mod shards;
 pub mod stats;
 pub mod taskfile;
 pub mod urdf;

@@ -36,6 +36,9 @@ pub struct TaskFile {
     /// `[retime]`: settings of `host-sim retime` and `plan --retime`.
     #[serde(default)]
     pub retime: RetimeSection,
+    /// `[dispersion]`: settings of `host-sim disperse` (see `crate::dispersion`).
+    #[serde(default)]
+    pub dispersion: DispersionSection,
 }
 
 /// One number for every joint, or one per joint.
@@ -46,6 +49,83 @@ pub enum PerJoint {
     One(f64),
     /// One value per joint, in URDF order.
     Each(Vec<f64>),
+}
+
+/// `[dispersion]`: the standard deviations (all ≥ 0; 0 = not dispersed).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct DispersionSection {
+    /// Relative mass dispersion of every body (1 = 100 %).
+    pub mass_rel_sigma: f64,
+    /// Relative inertia dispersion of every body.
+    pub inertia_rel_sigma: f64,
+    /// CoM offset per axis (m).
+    pub com_sigma_m: f64,
+    /// Joint-axis misalignment per perpendicular direction (deg).
+    pub axis_sigma_deg: f64,
+    /// Initial base rate per base axis (deg/s).
+    pub base_rate_sigma_deg_s: f64,
+    /// Normal draws beyond this many sigmas are redrawn (> 0).
+    pub truncation_sigmas: f64,
+}
+
+impl Default for DispersionSection {
+    fn default() -> Self {
+        Self {
+            mass_rel_sigma: 0.0,
+            inertia_rel_sigma: 0.0,
+            com_sigma_m: 0.0,
+            axis_sigma_deg: 0.0,
+            base_rate_sigma_deg_s: 0.0,
+            truncation_sigmas: 3.0,
+        }
+    }
+}
+
+impl DispersionSection {
+    /// Each setting's key and value, in table order.
+    pub fn entries(&self) -> [(&'static str, f64); 6] {
+        [
+            ("mass_rel_sigma", self.mass_rel_sigma),
+            ("inertia_rel_sigma", self.inertia_rel_sigma),
+            ("com_sigma_m", self.com_sigma_m),
+            ("axis_sigma_deg", self.axis_sigma_deg),
+            ("base_rate_sigma_deg_s", self.base_rate_sigma_deg_s),
+            ("truncation_sigmas", self.truncation_sigmas),
+        ]
+    }
+
+    /// Checks every value; `source(key)` names where a bad value came from (the flag or
+    /// the task file's key).
+    pub fn validate(&self, source: impl Fn(&str) -> String) -> Result<(), CliError> {
+        for (key, v) in self.entries() {
+            let ok = if key == "truncation_sigmas" {
+                v.is_finite() && v > 0.0
+            } else {
+                v.is_finite() && v >= 0.0
+            };
+            if !ok {
+                let want = if key == "truncation_sigmas" {
+                    "a finite number > 0"
+                } else {
+                    "a finite number >= 0"
+                };
+                return Err(CliError::input(format!(
+                    "{} = {v}: must be {want}",
+                    source(key)
+                )));
+            }
+        }
+        if self.mass_rel_sigma * self.truncation_sigmas >= 1.0 {
+            return Err(CliError::input(format!(
+                "{} = {} with truncation_sigmas = {}: masses could reach zero (need mass_rel_sigma × truncation_sigmas < 1)",
+                source("mass_rel_sigma"),
+                self.mass_rel_sigma,
+                self.truncation_sigmas
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// `[limits]`.

@@ -136,6 +136,78 @@ impl Chain {
     }
 }
 
+/// `chain` as a URDF document: one link per body (its merged inertial), the revolute
+/// joints with their limits, and the end-effector link on a fixed joint. Every number is
+/// written in its shortest round-trip form, so [`parse`] reads back the same bits.
+pub fn write(chain: &Chain) -> String {
+    let n = |v: f64| ryu::Buffer::new().format(v).to_string();
+    let v3 = |v: [f64; 3]| format!("{} {} {}", n(v[0]), n(v[1]), n(v[2]));
+    let esc = |s: &str| {
+        s.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+            .replace('"', "&quot;")
+    };
+    let link = |name: &str, b: &BodyDesc| {
+        let i = &b.inertia;
+        format!(
+            "  <link name=\"{}\">\n    <inertial><origin xyz=\"{}\" rpy=\"{}\"/><mass value=\"{}\"/>\n      <inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\"/></inertial>\n  </link>\n",
+            esc(name),
+            v3(b.inertial.xyz),
+            v3(b.inertial.rpy),
+            n(b.mass),
+            n(i.ixx),
+            n(i.ixy),
+            n(i.ixz),
+            n(i.iyy),
+            n(i.iyz),
+            n(i.izz)
+        )
+    };
+    let mut out = format!(
+        "<?xml version=\"1.0\"?>\n<!-- written by host-sim {} -->\n<robot name=\"{}\">\n",
+        env!("CARGO_PKG_VERSION"),
+        esc(&chain.name)
+    );
+    out.push_str(&link(&chain.base_link, &chain.base));
+    let mut parent = chain.base_link.as_str();
+    for ((j, name), (l, lname)) in chain
+        .joints
+        .iter()
+        .zip(&chain.joint_names)
+        .zip(chain.links.iter().zip(&chain.link_names))
+    {
+        out.push_str(&format!(
+            "  <joint name=\"{}\" type=\"revolute\">\n    <parent link=\"{}\"/><child link=\"{}\"/>\n    <origin xyz=\"{}\" rpy=\"{}\"/><axis xyz=\"{}\"/>\n    <limit lower=\"{}\" upper=\"{}\" velocity=\"{}\" effort=\"100\"/>\n  </joint>\n",
+            esc(name),
+            esc(parent),
+            esc(lname),
+            v3(j.origin.xyz),
+            v3(j.origin.rpy),
+            v3(j.axis),
+            n(j.lower),
+            n(j.upper),
+            n(j.velocity)
+        ));
+        out.push_str(&link(lname, l));
+        parent = lname;
+    }
+    if chain.ee_link != parent {
+        let e = &chain.end_effector;
+        out.push_str(&format!(
+            "  <joint name=\"{}_fixed\" type=\"fixed\">\n    <parent link=\"{}\"/><child link=\"{}\"/><origin xyz=\"{}\" rpy=\"{}\"/>\n  </joint>\n  <link name=\"{}\"/>\n",
+            esc(&chain.ee_link),
+            esc(parent),
+            esc(&chain.ee_link),
+            v3(e.xyz),
+            v3(e.rpy),
+            esc(&chain.ee_link)
+        ));
+    }
+    out.push_str("</robot>\n");
+    out
+}
+
 /// A rigid transform.
 #[derive(Debug, Clone, Copy)]
 struct Tf {

@@ -29,6 +29,11 @@ fn schemas() -> Vec<(&'static str, Value)> {
         ("frames", v(schema_for!(host_sim::cmd::frames::FramesJson))),
         ("target", v(schema_for!(host_sim::cmd::target::TargetJson))),
         ("model", v(schema_for!(host_sim::cmd::model::ModelReport))),
+        (
+            "disperse",
+            v(schema_for!(host_sim::dispersion_report::Report)),
+        ),
+        ("manifest", v(schema_for!(host_sim::shards::Manifest))),
     ]
 }
 
@@ -73,7 +78,7 @@ fn json_of(path: &Path) -> Value {
 }
 
 /// Real outputs of plan (both strategies, refined and not), rollout, record, bench,
-/// frames and model validate against their schemas.
+/// frames, model and disperse (its summary and manifest) validate against their schemas.
 /// Verifies RL-SIM-OUT-004.
 #[test]
 fn every_output_validates_against_its_schema() {
@@ -139,4 +144,16 @@ fn every_output_validates_against_its_schema() {
             "-90,45,0,80,-90,-45,-10",
         ]),
     );
+    let disp = tmp.path().join("disperse");
+    let r = host_sim()
+        .arg("disperse")
+        .arg(tmp.path().join("plan0"))
+        .args(["--samples", "3", "--seed", "1", "--mass-rel-sigma", "0.05"])
+        .args(["--base-rate-sigma-deg-s", "0.001", "--out"])
+        .arg(&disp)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    valid("disperse", &json_of(&disp.join("summary.json")));
+    valid("manifest", &json_of(&disp.join("manifest.json")));
 }

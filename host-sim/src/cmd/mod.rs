@@ -1,6 +1,7 @@
 //! One leaf per subcommand. Each file owns its `clap::Args` struct (flags and help) and
 //! `Args::run`; leaves import only the shared modules (`args`, `artifacts`, `drive`,
-//! `records`, `retiming`, `stats`, `output`, `taskfile`, `urdf`, `plots`, `view`), never each other. A new
+//! `records`, `retiming`, `stats`, `output`, `taskfile`, `urdf`, `plots`, `view`,
+//! `campaign_report`, `dispersion`, `dispersion_report`, `shards`), never each other. A new
 //! subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
@@ -8,9 +9,11 @@ pub mod block;
 pub mod campaign;
 pub mod check;
 pub mod completions;
+pub mod disperse;
 pub mod frames;
 pub mod generate;
 pub mod manpage;
+pub mod merge;
 pub mod model;
 pub mod plan;
 pub mod record;

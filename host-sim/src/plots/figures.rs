@@ -584,3 +584,71 @@ fn single(name: &'static str, size: (u32, u32), panel: Panel, d: &PlotData) -> F
         equal_aspect: false,
     }
 }
+
+/// The empirical CDF of one Monte Carlo figure, with its limit as a vertical line.
+pub(super) fn cdf_figure(c: &super::Cdf<'_>, stamp: &str) -> Result<Figure, String> {
+    let mut v: Vec<f64> = c.values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return Err(format!("{}: no finite values", c.name));
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len() as f64;
+    let mut points = Vec::with_capacity(2 * v.len());
+    for (k, x) in v.iter().enumerate() {
+        points.push((*x, k as f64 / n));
+        points.push((*x, (k + 1) as f64 / n));
+    }
+    let (lo, hi) = finite_range(v.iter().copied().chain(c.limit))
+        .ok_or_else(|| format!("{}: no finite values", c.name))?;
+    let x = padded(c.name, (lo, hi), 0.05)?;
+    let mut lines = vec![Line {
+        label: Some(format!("{} samples", v.len())),
+        colour: colour(0),
+        kind: LineKind::Data,
+        dots: false,
+        segments: vec![points],
+    }];
+    if let Some(l) = c.limit {
+        lines.push(Line {
+            label: Some(format!("limit {l}")),
+            colour: RGBColor(214, 39, 40),
+            kind: LineKind::Limit,
+            dots: false,
+            segments: vec![vec![(l, 0.0), (l, 1.0)]],
+        });
+    }
+    let (name, x_label): (&'static str, &'static str) = match c.name {
+        "base_disturbance_deg" => ("cdf_base_disturbance_deg", "base disturbance (deg)"),
+        "final_attitude_error_deg" => (
+            "cdf_final_attitude_error_deg",
+            "final base attitude error (deg)",
+        ),
+        "position_error_m" => ("cdf_position_error_m", "end-effector position error (m)"),
+        "orientation_error_deg" => (
+            "cdf_orientation_error_deg",
+            "end-effector orientation error (deg)",
+        ),
+        "f" => ("cdf_f", "f = |e| (m, rad)"),
+        _ => ("cdf", "value"),
+    };
+    Ok(Figure {
+        name,
+        size: (900, 600),
+        title: None,
+        panels: vec![Panel {
+            title: format!("Cumulative distribution of {}", c.name),
+            x_label,
+            y_label: "fraction of samples",
+            x,
+            y: (0.0, 1.0),
+            y_log: false,
+            x_ticks: value_ticks(x),
+            y_ticks: Ticks::Plain,
+            x_label_count: Some(8),
+            lines,
+            markers: Vec::new(),
+        }],
+        stamp: stamp.to_string(),
+        equal_aspect: false,
+    })
+}

@@ -144,6 +144,30 @@ pub fn write_retime_plots<const N: usize>(
     )
 }
 
+/// One figure's values for [`write_cdfs`].
+pub struct Cdf<'a> {
+    /// The figure's name with its unit, e.g. `base_disturbance_deg`: also the file name
+    /// (`cdf_NAME`).
+    pub name: &'a str,
+    /// The values, any order.
+    pub values: Vec<f64>,
+    /// A limit drawn as a vertical line (the paper's 0.01° on the base disturbance).
+    pub limit: Option<f64>,
+}
+
+/// Writes one empirical CDF per series (`cdf_NAME.png` and `.svg`) into `dir`, stamped
+/// with `stamp`; returns the file names written.
+pub fn write_cdfs(dir: &Path, series: &[Cdf<'_>], stamp: &str) -> Result<Vec<String>, CliError> {
+    let err = |e: String| CliError::input(format!("writing plots: {e}"));
+    ensure_font().map_err(err)?;
+    let figures = series
+        .iter()
+        .map(|c| figures::cdf_figure(c, stamp))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(err)?;
+    render(dir, &figures)
+}
+
 fn render(dir: &Path, figures: &[figures::Figure]) -> Result<Vec<String>, CliError> {
     let err = |e: String| CliError::input(format!("writing plots: {e}"));
     let mut written = Vec::with_capacity(2 * figures.len());

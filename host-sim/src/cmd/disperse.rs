@@ -1,0 +1,313 @@
+//! `host-sim disperse`: Monte Carlo over dispersed truth models of one planned path.
+//!
+//! The joint path of a plan, rollout or re-timed directory is flown open-loop, exactly as
+//! its setpoints command it, through `--samples` truth models whose masses, CoMs, inertia
+//! tensors, joint axes and initial base rate are drawn by `crate::dispersion` (settings:
+//! the task's `[dispersion]` table, overridden by the flags). Samples run on `--jobs`
+//! threads; each sample's draws depend only on `(seed, sample)`, so the output is the same
+//! for any number of jobs and any sharding (`--shard I/M`, put back by `host-sim merge`).
+//! Writes `runs.csv`, `summary.json`, `summary.md`, `sensitivity.csv`, `manifest.json`
+//! and with `--plots` the CDFs. `--export-sample K --out FILE.urdf` writes one sample's
+//! dispersed robot instead.
+
+use crate::artifacts::{read_bundle, read_output_file};
+use crate::dispersion::{self, Draw, Figures, JointPath, Settings};
+use crate::dispersion_report::{self as report, DirSummary, Report, Row, Statistics};
+use crate::error::{CliError, Context};
+use crate::output::{OutDir, write_atomic};
+use crate::shards::{self, Manifest, Shard, parse_shard};
+use crate::taskfile::LoadedTask;
+use crate::urdf;
+use crate::with_dims;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+/// Most samples one run may have.
+pub const MAX_SAMPLES: usize = 10_000_000;
+
+/// Fly a planned path through dispersed truth models: OUT/runs.csv, summary.json,
+/// summary.md, sensitivity.csv (or one sample's robot as URDF with --export-sample).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Output directory of `plan`, `rollout` or `retime`.
+    dir: PathBuf,
+    /// Samples of the run (required unless --export-sample).
+    #[arg(long, required_unless_present = "export_sample")]
+    samples: Option<usize>,
+    /// Seed of the draws.
+    #[arg(long)]
+    seed: u64,
+    /// Relative mass dispersion of every body (0.05 = 5 %).
+    #[arg(long, allow_negative_numbers = true)]
+    mass_rel_sigma: Option<f64>,
+    /// Relative inertia dispersion of every body.
+    #[arg(long, allow_negative_numbers = true)]
+    inertia_rel_sigma: Option<f64>,
+    /// CoM offset per axis (m).
+    #[arg(long, allow_negative_numbers = true)]
+    com_sigma_m: Option<f64>,
+    /// Joint-axis misalignment per perpendicular direction (deg).
+    #[arg(long, allow_negative_numbers = true)]
+    axis_sigma_deg: Option<f64>,
+    /// Initial base rate per base axis (deg/s).
+    #[arg(long, allow_negative_numbers = true)]
+    base_rate_sigma_deg_s: Option<f64>,
+    /// Normal draws beyond this many sigmas are redrawn (default 3).
+    #[arg(long, allow_negative_numbers = true)]
+    truncation_sigmas: Option<f64>,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Run only the I-th of M deterministic slices of the samples (1-based).
+    #[arg(long, value_parser = parse_shard, value_name = "I/M", conflicts_with = "export_sample")]
+    shard: Option<Shard>,
+    /// Also write CDF figures of the figures (PNG and SVG).
+    #[arg(long, conflicts_with = "export_sample")]
+    plots: bool,
+    /// Write sample K's (0-based) dispersed robot as URDF to --out instead.
+    #[arg(long, value_name = "K")]
+    export_sample: Option<u64>,
+    /// Output directory (replaced atomically), or the URDF file with --export-sample.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+impl Args {
+    /// The settings: the task's `[dispersion]`, each flag given replacing its key.
+    fn settings(&self, lt: &LoadedTask) -> Result<Settings, CliError> {
+        let mut s = lt.file.dispersion;
+        let flags = [
+            (&mut s.mass_rel_sigma, self.mass_rel_sigma),
+            (&mut s.inertia_rel_sigma, self.inertia_rel_sigma),
+            (&mut s.com_sigma_m, self.com_sigma_m),
+            (&mut s.axis_sigma_deg, self.axis_sigma_deg),
+            (&mut s.base_rate_sigma_deg_s, self.base_rate_sigma_deg_s),
+            (&mut s.truncation_sigmas, self.truncation_sigmas),
+        ];
+        for (slot, flag) in flags {
+            if let Some(v) = flag {
+                *slot = v;
+            }
+        }
+        let from_flag = |key: &str| match key {
+            "mass_rel_sigma" => self.mass_rel_sigma.is_some(),
+            "inertia_rel_sigma" => self.inertia_rel_sigma.is_some(),
+            "com_sigma_m" => self.com_sigma_m.is_some(),
+            "axis_sigma_deg" => self.axis_sigma_deg.is_some(),
+            "base_rate_sigma_deg_s" => self.base_rate_sigma_deg_s.is_some(),
+            _ => self.truncation_sigmas.is_some(),
+        };
+        s.validate(|key| {
+            if from_flag(key) {
+                format!("--{}", key.replace('_', "-"))
+            } else {
+                format!("{}: [dispersion] {key}", lt.path.display())
+            }
+        })?;
+        Ok(s)
+    }
+
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<(), CliError> {
+        let started = std::time::Instant::now();
+        let lt = read_bundle(&self.dir)?;
+        let settings = self.settings(&lt)?;
+        if let Some(k) = self.export_sample {
+            return with_dims!(
+                lt.chain.dof(),
+                export,
+                &lt,
+                &settings,
+                self.seed,
+                k,
+                &self.out
+            );
+        }
+        let samples = self.samples.unwrap_or(0);
+        if samples == 0 || samples > MAX_SAMPLES {
+            return Err(CliError::input(format!(
+                "--samples {samples}: must be in 1..={MAX_SAMPLES}"
+            )));
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.jobs.unwrap_or(0))
+            .build()
+            .or_input(|| "--jobs")?;
+        let run = Run {
+            dir: &self.dir,
+            lt: &lt,
+            settings,
+            seed: self.seed,
+            samples,
+            shard: self.shard.unwrap_or(Shard::WHOLE),
+            plots: self.plots,
+            out: &self.out,
+            started,
+        };
+        pool.install(|| with_dims!(lt.chain.dof(), disperse, &run))
+    }
+}
+
+/// One disperse run's inputs.
+struct Run<'a> {
+    dir: &'a Path,
+    lt: &'a LoadedTask,
+    settings: Settings,
+    seed: u64,
+    samples: usize,
+    shard: Shard,
+    plots: bool,
+    out: &'a Path,
+    started: std::time::Instant,
+}
+
+fn read_path<const N: usize>(dir: &Path) -> Result<(JointPath, String), CliError> {
+    let csv = read_output_file(dir, "trajectory.csv")?;
+    let path = JointPath::parse(&format!("{}/trajectory.csv", dir.display()), &csv, N)?;
+    Ok((path, csv))
+}
+
+fn export<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    settings: &Settings,
+    seed: u64,
+    sample: u64,
+    out: &Path,
+) -> Result<(), CliError> {
+    let draw = Draw::sample(&lt.chain, settings, seed, sample)?;
+    let mut dispersed = lt.clone();
+    dispersed.chain = draw.apply(&lt.chain);
+    // The dispersed robot must be a valid model before anyone re-checks it.
+    dispersed.task::<N, K>()?;
+    write_atomic(out, urdf::write(&dispersed.chain).as_bytes())?;
+    let w = draw.base_rate.map(f64::to_degrees);
+    eprintln!(
+        "disperse: sample {sample} of seed {seed} -> {} (initial base rate {:?} deg/s, not in the URDF)",
+        out.display(),
+        w
+    );
+    Ok(())
+}
+
+/// The figures `summary.json` of the directory gives for the nominal model.
+fn dir_summary(dir: &Path) -> Result<DirSummary, CliError> {
+    let text = read_output_file(dir, "summary.json")?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).or_input(|| format!("{}/summary.json", dir.display()))?;
+    Ok(DirSummary {
+        base_disturbance_deg: v["base_disturbance_deg"].as_f64(),
+        truth_f: v["truth_f"].as_f64(),
+    })
+}
+
+fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliError> {
+    let (path, csv) = read_path::<N>(run.dir)?;
+    let lt = run.lt;
+    let nominal_draw = Draw::nominal(&lt.chain);
+    let (nominal, _) = dispersion::fly::<N, K>(lt, &path, &nominal_draw)?;
+    let sensitivity = dispersion::sensitivity::<N, K>(lt, &path, &run.settings, &nominal)?;
+    let range = run.shard.items(run.samples, "samples")?;
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(range.len() as u64);
+        b.set_style(
+            ProgressStyle::with_template(
+                "{spinner} {elapsed} [{bar:30}] {pos}/{len} samples, eta {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let rows: Vec<Result<Row, CliError>> = range
+        .clone()
+        .into_par_iter()
+        .map(|k| {
+            let sample = k as u64;
+            let r = Draw::sample(&lt.chain, &run.settings, run.seed, sample).and_then(|draw| {
+                let (figures, _) =
+                    dispersion::fly::<N, K>(lt, &path, &draw).map_err(|e| CliError {
+                        message: format!("sample {sample}: {}", e.message),
+                        ..e
+                    })?;
+                Ok(Row {
+                    sample,
+                    figures,
+                    draw,
+                })
+            });
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let rows: Vec<Row> = rows.into_iter().collect::<Result<_, _>>()?;
+    let figures: Vec<Figures> = rows.iter().map(|r| r.figures).collect();
+    let rep = Report {
+        dir: run.dir.display().to_string(),
+        robot: lt.chain.name.clone(),
+        seed: run.seed,
+        samples: run.samples,
+        rows: rows.len(),
+        settings: run.settings,
+        nominal,
+        dir_summary: dir_summary(run.dir)?,
+        statistics: Statistics::of(&figures),
+        sensitivity,
+    };
+    let out = OutDir::create(run.out)?;
+    out.write("runs.csv", &report::runs_csv(&lt.chain, &rows)?)?;
+    report::write_report(&out, &rep, run.plots, &figures)?;
+    let mut bits = Vec::new();
+    for (_, v) in run.settings.entries() {
+        bits.extend(v.to_bits().to_le_bytes());
+    }
+    let id = shards::run_id(&[
+        b"disperse",
+        lt.text.as_bytes(),
+        lt.urdf_text.as_bytes(),
+        csv.as_bytes(),
+        &run.seed.to_le_bytes(),
+        &(run.samples as u64).to_le_bytes(),
+        &bits,
+        rep.dir.as_bytes(),
+    ]);
+    out.write_json(
+        shards::MANIFEST,
+        &Manifest {
+            kind: "disperse".into(),
+            run_id: id,
+            shard: run.shard.index,
+            shards: run.shard.count,
+            first: range.start,
+            end: range.end,
+            total: run.samples,
+            build: shards::build(),
+            plots: run.plots,
+            context: serde_json::Value::Null,
+            wall_time_s: run.started.elapsed().as_secs_f64(),
+        },
+    )?;
+    let path = out.commit()?;
+    let s = &rep.statistics;
+    let part = if run.shard == Shard::WHOLE {
+        String::new()
+    } else {
+        format!(
+            " (shard {}: samples {}..{})",
+            run.shard, range.start, range.end
+        )
+    };
+    eprintln!(
+        "disperse: {} samples{part}: base disturbance p99 {:.3e} deg (nominal {:.3e}), position error p99 {:.3e} m, in {:.1} s -> {}",
+        rows.len(),
+        s.base_disturbance_deg.p99,
+        nominal.base_disturbance_deg,
+        s.position_error_m.p99,
+        run.started.elapsed().as_secs_f64(),
+        path.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,377 @@
+//! What `disperse` (and `merge` of its shards) writes: `runs.csv`, `summary.json`,
+//! `summary.md` and `sensitivity.csv`.
+//!
+//! Owns the column layout of `runs.csv` ([`header`], [`record`]: the figures, then every
+//! drawn parameter, each number in its shortest round-trip form), reading the figures
+//! back ([`read_figures`], bit for bit), the statistics ([`Statistics`]: nearest-rank
+//! p50/p95/p99, max, and the mean summed in sample order) and the report
+//! ([`Report`], [`markdown`]). Everything here is a function of the rows and the run's
+//! settings, so shards merged give what one machine writes.
+
+use crate::dispersion::{Draw, Figures, Sensitivity, Settings, body_label};
+use crate::error::{CliError, Context};
+use crate::output::OutDir;
+use crate::plots;
+use crate::stats::{max, percentile};
+use crate::urdf::Chain;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+
+/// One sample: its index, what it gave and what was drawn.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// Sample index (0-based).
+    pub sample: u64,
+    /// Flown figures.
+    pub figures: Figures,
+    /// Drawn parameters.
+    pub draw: Draw,
+}
+
+/// How to read one figure from [`Figures`].
+pub type Getter = fn(&Figures) -> f64;
+
+/// The figures' columns, in order, with how to read them from [`Figures`].
+pub const FIGURES: [(&str, Getter); 5] = [
+    ("base_disturbance_deg", |f| f.base_disturbance_deg),
+    ("final_attitude_error_deg", |f| f.final_attitude_error_deg),
+    ("position_error_m", |f| f.position_error_m),
+    ("orientation_error_deg", |f| f.orientation_error_deg),
+    ("f", |f| f.f),
+];
+
+/// The header of `runs.csv` for `chain`.
+pub fn header(chain: &Chain) -> Vec<String> {
+    let mut h = vec!["sample".to_string()];
+    h.extend(FIGURES.iter().map(|(n, _)| (*n).to_string()));
+    h.extend(
+        [
+            "base_rate_x_deg_s",
+            "base_rate_y_deg_s",
+            "base_rate_z_deg_s",
+        ]
+        .map(String::from),
+    );
+    for b in 0..=chain.links.len() {
+        let n = body_label(chain, b);
+        h.push(format!("{n}.mass_kg"));
+        for a in ["x", "y", "z"] {
+            h.push(format!("{n}.com_{a}_m"));
+        }
+        for e in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
+            h.push(format!("{n}.{e}_kg_m2"));
+        }
+    }
+    for j in &chain.joint_names {
+        for a in ["x", "y", "z"] {
+            h.push(format!("{j}.axis_{a}"));
+        }
+    }
+    h
+}
+
+fn num(v: f64) -> String {
+    ryu::Buffer::new().format(v).to_string()
+}
+
+/// One row of `runs.csv`, in [`header`]'s order.
+pub fn record(r: &Row) -> Vec<String> {
+    let mut out = vec![r.sample.to_string()];
+    out.extend(FIGURES.iter().map(|(_, get)| num(get(&r.figures))));
+    out.extend(r.draw.base_rate.iter().map(|w| num(w.to_degrees())));
+    for ((m, c), i) in r.draw.mass.iter().zip(&r.draw.com).zip(&r.draw.inertia) {
+        out.push(num(*m));
+        out.extend(c.iter().map(|v| num(*v)));
+        out.extend([i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz].map(num));
+    }
+    for a in &r.draw.axis {
+        out.extend(a.iter().map(|v| num(*v)));
+    }
+    out
+}
+
+/// `runs.csv` as text: the header, then the rows in the order given.
+pub fn runs_csv(chain: &Chain, rows: &[Row]) -> Result<Vec<u8>, CliError> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(header(chain)).or_internal(|| "runs.csv")?;
+    for r in rows {
+        w.write_record(record(r)).or_internal(|| "runs.csv")?;
+    }
+    w.into_inner().or_internal(|| "runs.csv")
+}
+
+/// The sample index and figures of every row of a `runs.csv` text (`origin` names it).
+pub fn read_figures(origin: &str, text: &str) -> Result<Vec<(u64, Figures)>, CliError> {
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    let head = r.headers().or_input(|| origin)?.clone();
+    let col = |name: &str| {
+        head.iter()
+            .position(|h| h == name)
+            .ok_or_else(|| CliError::input(format!("{origin}: no column {name}")))
+    };
+    let sample = col("sample")?;
+    let cols: Vec<usize> = FIGURES
+        .iter()
+        .map(|(n, _)| col(n))
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::new();
+    for (k, rec) in r.records().enumerate() {
+        let rec = rec.or_input(|| format!("{origin}: row {}", k + 1))?;
+        let get = |c: usize| -> Result<f64, CliError> {
+            rec.get(c)
+                .unwrap_or("")
+                .parse::<f64>()
+                .or_input(|| format!("{origin}: row {}, column {}", k + 1, &head[c]))
+        };
+        let s: u64 = rec
+            .get(sample)
+            .unwrap_or("")
+            .parse()
+            .or_input(|| format!("{origin}: row {}: sample", k + 1))?;
+        out.push((
+            s,
+            Figures {
+                base_disturbance_deg: get(cols[0])?,
+                final_attitude_error_deg: get(cols[1])?,
+                position_error_m: get(cols[2])?,
+                orientation_error_deg: get(cols[3])?,
+                f: get(cols[4])?,
+            },
+        ));
+    }
+    Ok(out)
+}
+
+/// The statistics of one figure.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct Stat {
+    /// Median (nearest rank).
+    pub p50: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+    /// 99th percentile (nearest rank).
+    pub p99: f64,
+    /// Largest value.
+    pub max: f64,
+    /// Mean (summed in sample order).
+    pub mean: f64,
+}
+
+impl Stat {
+    fn of(v: &[f64]) -> Self {
+        let mut sum = 0.0;
+        for x in v {
+            sum += x;
+        }
+        Self {
+            p50: percentile(v, 50.0),
+            p95: percentile(v, 95.0),
+            p99: percentile(v, 99.0),
+            max: max(v),
+            mean: sum / v.len().max(1) as f64,
+        }
+    }
+}
+
+/// The statistics of every figure over the samples.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct Statistics {
+    /// Largest base rotation (deg).
+    pub base_disturbance_deg: Stat,
+    /// Base rotation at the end (deg).
+    pub final_attitude_error_deg: Stat,
+    /// End-effector position error (m).
+    pub position_error_m: Stat,
+    /// End-effector orientation error (deg).
+    pub orientation_error_deg: Stat,
+    /// f.
+    pub f: Stat,
+}
+
+impl Statistics {
+    /// Over `figures`, in sample order.
+    pub fn of(figures: &[Figures]) -> Self {
+        let col = |k: usize| -> Stat {
+            let v: Vec<f64> = figures.iter().map(|f| FIGURES[k].1(f)).collect();
+            Stat::of(&v)
+        };
+        Self {
+            base_disturbance_deg: col(0),
+            final_attitude_error_deg: col(1),
+            position_error_m: col(2),
+            orientation_error_deg: col(3),
+            f: col(4),
+        }
+    }
+
+    fn get(&self, k: usize) -> &Stat {
+        match k {
+            0 => &self.base_disturbance_deg,
+            1 => &self.final_attitude_error_deg,
+            2 => &self.position_error_m,
+            3 => &self.orientation_error_deg,
+            _ => &self.f,
+        }
+    }
+}
+
+/// What the directory's own `summary.json` says (plan and rollout: the nominal truth
+/// model's figures; a re-timed bundle: its base disturbance only).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct DirSummary {
+    /// `base_disturbance_deg`.
+    pub base_disturbance_deg: Option<f64>,
+    /// `truth_f`.
+    pub truth_f: Option<f64>,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Report {
+    /// The plan, rollout or re-timed directory flown.
+    pub dir: String,
+    /// The robot's name.
+    pub robot: String,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// Samples of the run.
+    pub samples: usize,
+    /// Samples these statistics cover (all of them, unless this is one shard).
+    pub rows: usize,
+    /// The dispersion.
+    pub settings: Settings,
+    /// The nominal truth model's figures (every σ = 0).
+    pub nominal: Figures,
+    /// The same figures from the directory's `summary.json`.
+    pub dir_summary: DirSummary,
+    /// Statistics over the samples.
+    pub statistics: Statistics,
+    /// One-at-a-time sensitivity (+1σ of each dispersed parameter).
+    pub sensitivity: Vec<Sensitivity>,
+}
+
+/// `sensitivity.csv` as text.
+pub fn sensitivity_csv(rows: &[Sensitivity]) -> Result<Vec<u8>, CliError> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(r).or_internal(|| "sensitivity.csv")?;
+    }
+    if rows.is_empty() {
+        w.write_record([
+            "parameter",
+            "step",
+            "d_base_disturbance_deg",
+            "d_position_error_m",
+            "d_orientation_error_deg",
+        ])
+        .or_internal(|| "sensitivity.csv")?;
+    }
+    w.into_inner().or_internal(|| "sensitivity.csv")
+}
+
+/// `summary.md`.
+pub fn markdown(r: &Report) -> String {
+    let mut out = format!(
+        "# Dispersion summary\n\n`{}` ({}), {} samples, seed {}{}.\n\nDispersion:",
+        r.dir,
+        r.robot,
+        r.samples,
+        r.seed,
+        if r.rows == r.samples {
+            String::new()
+        } else {
+            format!(" (this shard: {} of them)", r.rows)
+        }
+    );
+    for (k, v) in r.settings.entries() {
+        let _ = write!(
+            out,
+            " {k} = {v}{}",
+            if k == "truncation_sigmas" { "." } else { "," }
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\n\n| figure | nominal | p50 | p95 | p99 | max | mean |\n|---|---|---|---|---|---|---|"
+    );
+    for (k, (name, get)) in FIGURES.iter().enumerate() {
+        let s = r.statistics.get(k);
+        let _ = writeln!(
+            out,
+            "| {name} | {:.4e} | {:.4e} | {:.4e} | {:.4e} | {:.4e} | {:.4e} |",
+            get(&r.nominal),
+            s.p50,
+            s.p95,
+            s.p99,
+            s.max,
+            s.mean
+        );
+    }
+    let limit = 0.01;
+    let _ = writeln!(
+        out,
+        "\nThe paper's limit on the base disturbance is {limit}°: the nominal flight {} it; p99 {} it.",
+        if r.nominal.base_disturbance_deg <= limit {
+            "meets"
+        } else {
+            "exceeds"
+        },
+        if r.statistics.base_disturbance_deg.p99 <= limit {
+            "meets"
+        } else {
+            "exceeds"
+        },
+    );
+    if !r.sensitivity.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n## Sensitivity (one at a time, +1σ from nominal)\n\nThe five parameters that move each figure most; all of them in `sensitivity.csv`.\n"
+        );
+        type Get = fn(&Sensitivity) -> f64;
+        let cols: [(&str, Get); 3] = [
+            ("base disturbance (deg)", |s| s.d_base_disturbance_deg),
+            ("position error (m)", |s| s.d_position_error_m),
+            ("orientation error (deg)", |s| s.d_orientation_error_deg),
+        ];
+        for (name, get) in cols {
+            let mut v: Vec<&Sensitivity> = r.sensitivity.iter().collect();
+            // Largest |change| first; ties keep table order (stable sort).
+            v.sort_by(|a, b| get(b).abs().total_cmp(&get(a).abs()));
+            let _ = writeln!(out, "| change of {name} | step | change |\n|---|---|---|");
+            for s in v.iter().take(5) {
+                let _ = writeln!(out, "| {} | {} | {:+.3e} |", s.parameter, s.step, get(s));
+            }
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// Writes `summary.json`, `summary.md`, `sensitivity.csv` and the CDFs (`merge` too).
+pub fn write_report(
+    out: &OutDir,
+    rep: &Report,
+    with_plots: bool,
+    figures: &[Figures],
+) -> Result<(), CliError> {
+    out.write_json("summary.json", rep)?;
+    out.write("summary.md", markdown(rep).as_bytes())?;
+    out.write("sensitivity.csv", &sensitivity_csv(&rep.sensitivity)?)?;
+    if with_plots {
+        let series: Vec<plots::Cdf> = FIGURES
+            .iter()
+            .map(|(name, get)| plots::Cdf {
+                name,
+                values: figures.iter().map(get).collect(),
+                limit: (*name == "base_disturbance_deg").then_some(0.01),
+            })
+            .collect();
+        plots::write_cdfs(
+            &out.path(""),
+            &series,
+            &format!("{} · {} samples · seed {}", rep.dir, rep.samples, rep.seed),
+        )?;
+    }
+    Ok(())
+}

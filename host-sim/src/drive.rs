@@ -69,6 +69,22 @@ pub fn spinner(msg: &str) -> ProgressBar {
     }
 }
 
+/// A bar of `len` items with the elapsed time, `{pos}/{len}` and `tail` (an indicatif
+/// template fragment, e.g. `samples, eta {eta}`) on a terminal (stderr); hidden elsewhere.
+pub fn bar(len: u64, tail: &str) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(len);
+    b.set_style(
+        ProgressStyle::with_template(&format!(
+            "{{spinner}} {{elapsed}} [{{bar:30}}] {{pos}}/{{len}} {tail}"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    b
+}
+
 /// Plans `lt` with `config` to the end; shows a progress bar on a terminal if `progress`.
 ///
 /// # Errors
@@ -81,15 +97,8 @@ pub fn plan<const N: usize, const K: usize>(
     let task = lt.task::<N, K>()?;
     let mut planner: Box<HostPlanner<N, K>> =
         Box::new(Planner::new(task, config).or_input(|| "planner")?);
-    let bar = if progress && std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(u64::from(config.max_rollouts));
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} {elapsed} [{bar:30}] {pos}/{len} rollouts {msg}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        b
+    let bar = if progress {
+        bar(u64::from(config.max_rollouts), "rollouts {msg}")
     } else {
         ProgressBar::hidden()
     };

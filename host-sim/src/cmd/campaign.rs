@@ -16,10 +16,8 @@ use crate::output::OutDir;
 use crate::shards::{self, Manifest, Shard, parse_shard};
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use reactionless::{RefineAgainst, Strategy};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 fn one<const N: usize, const K: usize>(
@@ -173,18 +171,7 @@ fn run(
     let total = pairs.len();
     let range = shard.items(total, "runs")?;
     let pairs = &pairs[range.clone()];
-    let bar = if std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(pairs.len() as u64);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} {elapsed} [{bar:30}] {pos}/{len} runs, eta {eta}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = drive::bar(pairs.len() as u64, "runs, eta {eta}");
     let results: Vec<Result<Run, CliError>> = pool.install(|| {
         pairs
             .par_iter()

@@ -13,15 +13,14 @@
 use crate::artifacts::{read_bundle, read_output_file};
 use crate::dispersion::{self, Draw, Figures, JointPath, Settings};
 use crate::dispersion_report::{self as report, DirSummary, Report, Row, Statistics};
+use crate::drive;
 use crate::error::{CliError, Context};
 use crate::output::{OutDir, write_atomic};
 use crate::shards::{self, Manifest, Shard, parse_shard};
 use crate::taskfile::LoadedTask;
 use crate::urdf;
 use crate::with_dims;
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 /// Most samples one run may have.
@@ -209,18 +208,7 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
     let (nominal, _) = dispersion::fly::<N, K>(lt, &path, &nominal_draw)?;
     let sensitivity = dispersion::sensitivity::<N, K>(lt, &path, &run.settings, &nominal)?;
     let range = run.shard.items(run.samples, "samples")?;
-    let bar = if std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(range.len() as u64);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} {elapsed} [{bar:30}] {pos}/{len} samples, eta {eta}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = drive::bar(range.len() as u64, "samples, eta {eta}");
     let rows: Vec<Result<Row, CliError>> = range
         .clone()
         .into_par_iter()

@@ -369,3 +369,42 @@ fn campaign_shards_merge_to_the_whole_campaign() {
     );
     assert_eq!(strip(&one.join("runs.csv")).len(), 3);
 }
+
+/// Off a terminal (a batch log), a run of 100 samples or more reports its progress on
+/// stderr at every tenth; a smaller one only its result.
+/// Verifies RL-SIM-DISP-008.
+#[test]
+fn long_runs_log_their_progress_off_a_terminal() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = rollout(tmp.path());
+    let o = disperse(
+        &dir,
+        &tmp.path().join("d100"),
+        &[
+            "--samples",
+            "100",
+            "--seed",
+            "1",
+            "--mass-rel-sigma",
+            "0.05",
+        ],
+    );
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("disperse: ") && l.contains("/100 samples ("))
+        .collect();
+    assert_eq!(lines.len(), 10, "{err}");
+    assert!(
+        lines[9].starts_with("disperse: 100/100 samples (100%), "),
+        "{err}"
+    );
+    let o = disperse(
+        &dir,
+        &tmp.path().join("d99"),
+        &["--samples", "99", "--seed", "1", "--mass-rel-sigma", "0.05"],
+    );
+    ok(&o);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("/99 samples ("));
+}

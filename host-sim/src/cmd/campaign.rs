@@ -171,18 +171,18 @@ fn run(
     let total = pairs.len();
     let range = shard.items(total, "runs")?;
     let pairs = &pairs[range.clone()];
-    let bar = drive::bar(pairs.len() as u64, "runs, eta {eta}");
+    let bar = drive::Progress::new("campaign", pairs.len() as u64, "runs");
     let results: Vec<Result<Run, CliError>> = pool.install(|| {
         pairs
             .par_iter()
             .map(|(lt, overrides)| {
                 let r = with_dims!(lt.chain.dof(), one, lt, overrides);
-                bar.inc(1);
+                bar.inc();
                 r
             })
             .collect()
     });
-    bar.finish_and_clear();
+    bar.finish();
     let runs: Vec<Run> = results.into_iter().collect::<Result<_, _>>()?;
     let dir = OutDir::create(out)?;
     let mut csv = csv::Writer::from_path(dir.path("runs.csv")).or_input(|| "runs.csv")?;

@@ -208,7 +208,7 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
     let (nominal, _) = dispersion::fly::<N, K>(lt, &path, &nominal_draw)?;
     let sensitivity = dispersion::sensitivity::<N, K>(lt, &path, &run.settings, &nominal)?;
     let range = run.shard.items(run.samples, "samples")?;
-    let bar = drive::bar(range.len() as u64, "samples, eta {eta}");
+    let bar = drive::Progress::new("disperse", range.len() as u64, "samples");
     let rows: Vec<Result<Row, CliError>> = range
         .clone()
         .into_par_iter()
@@ -226,11 +226,11 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
                     draw,
                 })
             });
-            bar.inc(1);
+            bar.inc();
             r
         })
         .collect();
-    bar.finish_and_clear();
+    bar.finish();
     let rows: Vec<Row> = rows.into_iter().collect::<Result<_, _>>()?;
     let figures: Vec<Figures> = rows.iter().map(|r| r.figures).collect();
     let rep = Report {

@@ -29,12 +29,15 @@
 
 use crate::artifacts::TRUTH_SUBSTEPS;
 use crate::error::CliError;
+use crate::output::read_trajectory_csv;
+use crate::retiming;
 pub use crate::taskfile::DispersionSection as Settings;
 use crate::taskfile::LoadedTask;
 use crate::urdf::Chain;
 use reactionless::random::Stream;
 use reactionless::{BodyDesc, Frames, Inertia, Momentum, Pose, Task, TruthModel, TruthState};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// Redraws allowed for one truncated normal or one physical inertia before giving up.
 pub const MAX_REDRAWS: u32 = 1000;
@@ -296,61 +299,41 @@ pub fn body_label(chain: &Chain, b: usize) -> String {
 
 /// The joint path of an output directory: times (s) and configurations (rad).
 #[derive(Debug, Clone, PartialEq)]
-pub struct JointPath {
+pub struct JointPath<const N: usize> {
     /// Times (s).
     pub t: Vec<f64>,
-    /// Configurations (rad), one row of N per time.
-    pub q: Vec<Vec<f64>>,
+    /// Configurations (rad), one per time.
+    pub q: Vec<[f64; N]>,
 }
 
-impl JointPath {
-    /// Parses `trajectory.csv` of a plan or rollout (`t,q1..qN,qd1..qdN`) or of a re-timed
-    /// bundle (`t,q..,qd..,qdd..`): only `t` and `q` are used. Errors name `origin`, the
-    /// row and what was wrong.
-    pub fn parse(origin: &str, csv: &str, n: usize) -> Result<Self, CliError> {
-        let err = |m: String| CliError::input(format!("{origin}: {m}"));
-        let mut lines = csv.lines();
-        let header = lines.next().ok_or_else(|| err("empty file".into()))?;
-        let cols: Vec<&str> = header.split(',').collect();
-        let want_q: Vec<String> = (1..=n).map(|i| format!("q{i}")).collect();
-        if cols.first() != Some(&"t")
-            || cols
-                .get(1..=n)
-                .map(|c| c.iter().copied().eq(want_q.iter().map(String::as_str)))
-                != Some(true)
-            || !(cols.len() == 1 + 2 * n || cols.len() == 1 + 3 * n)
-        {
-            return Err(err(format!(
-                "header {header:?}: expected t,q1..q{n},qd1..qd{n} (plan, rollout) or with qdd1..qdd{n} (retime)"
-            )));
-        }
-        let mut path = Self {
-            t: Vec::new(),
-            q: Vec::new(),
-        };
-        for (row, text) in lines.enumerate() {
-            let v: Vec<f64> = text
-                .split(',')
-                .map(str::parse::<f64>)
-                .collect::<Result<_, _>>()
-                .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
-            if v.len() != cols.len() || v.iter().any(|x| !x.is_finite()) {
-                return Err(err(format!(
-                    "row {}: expected {} finite values",
-                    row + 1,
-                    cols.len()
-                )));
+impl<const N: usize> JointPath<N> {
+    /// Reads `dir`'s `trajectory.csv` text: a plan's or rollout's
+    /// ([`crate::output::read_trajectory_csv`]) or a re-timed bundle's
+    /// ([`crate::retiming::read_csv`]), told apart by the header; only `t` and `q` are
+    /// used. The path must have two samples or more, finite, at increasing times. Errors
+    /// name the file, the row and what was wrong.
+    pub fn parse(dir: &Path, csv: &str) -> Result<Self, CliError> {
+        let (t, q): (Vec<f64>, Vec<[f64; N]>) =
+            if csv.lines().next() == Some(retiming::header(N).as_str()) {
+                let rows = retiming::read_csv::<N>(dir, csv)?;
+                rows.iter().map(|s| (s.t, s.q)).unzip()
+            } else {
+                let rows = read_trajectory_csv::<N>(dir, csv)?;
+                rows.iter().map(|s| (s.t, s.q)).unzip()
+            };
+        let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
+        for (row, (tk, qk)) in t.iter().zip(&q).enumerate() {
+            if !tk.is_finite() || qk.iter().any(|v| !v.is_finite()) {
+                return Err(err(format!("row {}: a value is not finite", row + 1)));
             }
-            if path.t.last().is_some_and(|&t| v[0] <= t) {
+            if row > 0 && *tk <= t[row - 1] {
                 return Err(err(format!("row {}: time does not increase", row + 1)));
             }
-            path.t.push(v[0]);
-            path.q.push(v[1..=n].to_vec());
         }
-        if path.t.len() < 2 {
+        if t.len() < 2 {
             return Err(err("fewer than two samples".into()));
         }
-        Ok(path)
+        Ok(Self { t, q })
     }
 }
 
@@ -373,7 +356,7 @@ pub struct Figures {
 /// starts at rest with the identity attitude unless the draw has a base rate.
 pub fn fly<const N: usize, const K: usize>(
     lt: &LoadedTask,
-    path: &JointPath,
+    path: &JointPath<N>,
     draw: &Draw,
 ) -> Result<(Figures, Pose), CliError> {
     let mut dispersed = lt.clone();
@@ -388,10 +371,8 @@ pub fn fly<const N: usize, const K: usize>(
         state = state.with_momentum([l.x, l.y, l.z]);
     }
     let mut truth = TruthModel::from_state(&task, state);
-    let mut q = [0.0; N];
-    for (t, row) in path.t.iter().zip(&path.q) {
-        q.copy_from_slice(row);
-        truth.push(&q, *t);
+    for (t, q) in path.t.iter().zip(&path.q) {
+        truth.push(q, *t);
     }
     if let Some(e) = truth.error() {
         return Err(CliError::failed(format!("truth model failed: {e}")));
@@ -432,7 +413,7 @@ pub struct Sensitivity {
 /// whole-tensor scale `(1 + σ_I)` (always physical); axes tilt about each perpendicular.
 pub fn sensitivity<const N: usize, const K: usize>(
     lt: &LoadedTask,
-    path: &JointPath,
+    path: &JointPath<N>,
     s: &Settings,
     nominal: &Figures,
 ) -> Result<Vec<Sensitivity>, CliError> {

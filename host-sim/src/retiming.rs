@@ -16,6 +16,7 @@ use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
 use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
 use serde::{Deserialize, Serialize};
 use std::io::Write as _;
+use std::path::Path;
 
 /// `summary.json` of a re-timed bundle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -114,6 +115,46 @@ pub fn compute<const N: usize, const K: usize>(
         limits,
         q_final,
     })
+}
+
+/// Parses a re-timed `trajectory.csv` as [`write`] writes it: header [`header`], rows of
+/// `1 + 3N` numbers, every value exactly as written; errors name `dir` and the row.
+pub fn read_csv<const N: usize>(dir: &Path, csv: &str) -> Result<Vec<Setpoint<N>>, CliError> {
+    let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
+    let mut lines = csv.lines();
+    let header = lines.next().ok_or_else(|| err("empty file".into()))?;
+    let want = self::header(N);
+    if header != want {
+        return Err(err(format!("header {header:?}, expected {want:?}")));
+    }
+    let mut out = Vec::new();
+    for (row, text) in lines.enumerate() {
+        let v: Vec<f64> = text
+            .split(',')
+            .map(|v| v.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
+        if v.len() != 1 + 3 * N {
+            return Err(err(format!(
+                "row {}: {} values, expected {}",
+                row + 1,
+                v.len(),
+                1 + 3 * N
+            )));
+        }
+        let mut s = Setpoint {
+            step: row as u32,
+            t: v[0],
+            q: [0.0; N],
+            qd: [0.0; N],
+            qdd: [0.0; N],
+        };
+        s.q.copy_from_slice(&v[1..=N]);
+        s.qd.copy_from_slice(&v[N + 1..=2 * N]);
+        s.qdd.copy_from_slice(&v[2 * N + 1..]);
+        out.push(s);
+    }
+    Ok(out)
 }
 
 /// The CSV header for `n` joints: `t,q1..qN,qd1..qdN,qdd1..qddN`.

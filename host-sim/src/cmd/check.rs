@@ -114,45 +114,6 @@ pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
 /// Limits may be exceeded by this factor at a written setpoint (the 0.5 %).
 pub const RETIME_TOLERANCE: f64 = 1.005;
 
-/// Parses a re-timed CSV: header `t,q..,qd..,qdd..`, rows of `1 + 3N` numbers.
-fn parse_retimed<const N: usize>(dir: &Path, csv: &str) -> Result<Vec<Setpoint<N>>, CliError> {
-    let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
-    let mut lines = csv.lines();
-    let header = lines.next().ok_or_else(|| err("empty file".into()))?;
-    let want = retiming::header(N);
-    if header != want {
-        return Err(err(format!("header {header:?}, expected {want:?}")));
-    }
-    let mut out = Vec::new();
-    for (row, text) in lines.enumerate() {
-        let v: Vec<f64> = text
-            .split(',')
-            .map(|v| v.parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
-        if v.len() != 1 + 3 * N {
-            return Err(err(format!(
-                "row {}: {} values, expected {}",
-                row + 1,
-                v.len(),
-                1 + 3 * N
-            )));
-        }
-        let mut s = Setpoint {
-            step: row as u32,
-            t: v[0],
-            q: [0.0; N],
-            qd: [0.0; N],
-            qdd: [0.0; N],
-        };
-        s.q.copy_from_slice(&v[1..=N]);
-        s.qd.copy_from_slice(&v[N + 1..=2 * N]);
-        s.qdd.copy_from_slice(&v[2 * N + 1..]);
-        out.push(s);
-    }
-    Ok(out)
-}
-
 /// The worst `|value|/limit` over the setpoints, and where.
 fn worst_ratio<const N: usize>(
     written: &[Setpoint<N>],
@@ -181,7 +142,7 @@ fn verify_retimed<const N: usize, const K: usize>(
 ) -> Result<Vec<Line>, CliError> {
     let task = lt.task::<N, K>()?;
     let eta = parse_eta::<K>(&summary.eta)?;
-    let written = parse_retimed::<N>(dir, csv)?;
+    let written = retiming::read_csv::<N>(dir, csv)?;
     let qdd_deg = lt.qdd_max_deg::<N>(None)?.ok_or_else(|| {
         CliError::input(format!(
             "{}: a re-timed bundle without [limits] qdd_max_deg_s2",

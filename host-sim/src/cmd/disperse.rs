@@ -78,28 +78,34 @@ impl Args {
     fn settings(&self, lt: &LoadedTask) -> Result<Settings, CliError> {
         let mut s = lt.file.dispersion;
         let flags = [
-            (&mut s.mass_rel_sigma, self.mass_rel_sigma),
-            (&mut s.inertia_rel_sigma, self.inertia_rel_sigma),
-            (&mut s.com_sigma_m, self.com_sigma_m),
-            (&mut s.axis_sigma_deg, self.axis_sigma_deg),
-            (&mut s.base_rate_sigma_deg_s, self.base_rate_sigma_deg_s),
-            (&mut s.truncation_sigmas, self.truncation_sigmas),
+            (&mut s.mass_rel_sigma, self.mass_rel_sigma, "mass_rel_sigma"),
+            (
+                &mut s.inertia_rel_sigma,
+                self.inertia_rel_sigma,
+                "inertia_rel_sigma",
+            ),
+            (&mut s.com_sigma_m, self.com_sigma_m, "com_sigma_m"),
+            (&mut s.axis_sigma_deg, self.axis_sigma_deg, "axis_sigma_deg"),
+            (
+                &mut s.base_rate_sigma_deg_s,
+                self.base_rate_sigma_deg_s,
+                "base_rate_sigma_deg_s",
+            ),
+            (
+                &mut s.truncation_sigmas,
+                self.truncation_sigmas,
+                "truncation_sigmas",
+            ),
         ];
-        for (slot, flag) in flags {
+        let mut given = Vec::new();
+        for (slot, flag, key) in flags {
             if let Some(v) = flag {
                 *slot = v;
+                given.push(key);
             }
         }
-        let from_flag = |key: &str| match key {
-            "mass_rel_sigma" => self.mass_rel_sigma.is_some(),
-            "inertia_rel_sigma" => self.inertia_rel_sigma.is_some(),
-            "com_sigma_m" => self.com_sigma_m.is_some(),
-            "axis_sigma_deg" => self.axis_sigma_deg.is_some(),
-            "base_rate_sigma_deg_s" => self.base_rate_sigma_deg_s.is_some(),
-            _ => self.truncation_sigmas.is_some(),
-        };
         s.validate(|key| {
-            if from_flag(key) {
+            if given.contains(&key) {
                 format!("--{}", key.replace('_', "-"))
             } else {
                 format!("{}: [dispersion] {key}", lt.path.display())
@@ -162,9 +168,9 @@ struct Run<'a> {
     started: std::time::Instant,
 }
 
-fn read_path<const N: usize>(dir: &Path) -> Result<(JointPath, String), CliError> {
+fn read_path<const N: usize>(dir: &Path) -> Result<(JointPath<N>, String), CliError> {
     let csv = read_output_file(dir, "trajectory.csv")?;
-    let path = JointPath::parse(&format!("{}/trajectory.csv", dir.display()), &csv, N)?;
+    let path = JointPath::parse(dir, &csv)?;
     Ok((path, csv))
 }
 

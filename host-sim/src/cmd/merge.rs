@@ -29,13 +29,15 @@ fn read(dir: &Path, name: &str) -> Result<String, CliError> {
         .or_input(|| format!("{}: cannot read {name}", dir.display()))
 }
 
-/// The shards' `runs.csv` concatenated, after checking that every shard has one header
-/// and the rows its manifest promises (`count` counts a text's rows).
-fn concat(
+/// The shards' `runs.csv` concatenated, as text and as the rows `parse` reads from each
+/// shard's text (named by its origin), after checking that every shard has one header
+/// and the rows its manifest promises.
+fn concat<T>(
     set: &[(PathBuf, Manifest)],
-    count: impl Fn(&Path, &str) -> Result<usize, CliError>,
-) -> Result<String, CliError> {
+    parse: impl Fn(&str, &str) -> Result<Vec<T>, CliError>,
+) -> Result<(String, Vec<T>), CliError> {
     let mut out = String::new();
+    let mut parsed = Vec::new();
     let mut head: Option<String> = None;
     for (dir, m) in set {
         let text = read(dir, "runs.csv")?;
@@ -53,7 +55,8 @@ fn concat(
             }
             Some(_) => {}
         }
-        let n = count(dir, &text)?;
+        let shard_rows = parse(&format!("{}/runs.csv", dir.display()), &text)?;
+        let n = shard_rows.len();
         if n != m.end - m.first {
             return Err(CliError::input(format!(
                 "{}/runs.csv has {n} rows, its manifest says {}",
@@ -62,8 +65,9 @@ fn concat(
             )));
         }
         out.push_str(rows);
+        parsed.extend(shard_rows);
     }
-    Ok(out)
+    Ok((out, parsed))
 }
 
 impl Args {
@@ -82,14 +86,8 @@ impl Args {
         };
         match first.kind.as_str() {
             "disperse" => {
-                let runs = concat(&set, |dir, text| {
-                    report::read_figures(&format!("{}/runs.csv", dir.display()), text)
-                        .map(|v| v.len())
-                })?;
-                let figures: Vec<_> = report::read_figures("merged runs.csv", &runs)?
-                    .into_iter()
-                    .map(|(_, f)| f)
-                    .collect();
+                let (runs, rows) = concat(&set, report::read_figures)?;
+                let figures: Vec<_> = rows.into_iter().map(|(_, f)| f).collect();
                 let mut rep: Report = serde_json::from_str(&read(first_dir, "summary.json")?)
                     .or_input(|| format!("{}/summary.json", first_dir.display()))?;
                 rep.rows = figures.len();
@@ -113,10 +111,7 @@ impl Args {
                         .collect::<Result<_, _>>()
                         .or_input(|| origin.to_string())
                 };
-                let runs_text = concat(&set, |dir, text| {
-                    parse(&format!("{}/runs.csv", dir.display()), text).map(|v| v.len())
-                })?;
-                let runs = parse("merged runs.csv", &runs_text)?;
+                let (runs_text, runs) = concat(&set, parse)?;
                 let seeds: Vec<u64> = serde_json::from_value(first.context["seeds"].clone())
                     .or_input(|| {
                         format!(

@@ -222,6 +222,25 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
             .count() as u32
     }
 
+    /// Copies lane `i` (its state, its η's weights and what it holds) into lane `j` of
+    /// `to`, a batch of the same task with any lane count. A wide batch can so be cut into
+    /// narrower ones, integrated apart (on several threads: `reactionless-simd`'s
+    /// `Threaded`) and put back together, each lane keeping the bits it would have had:
+    /// lanes never mix. Nothing happens for an index out of range.
+    pub fn copy_lane<const M: usize>(&self, i: usize, to: &mut Batch<N, K, M>, j: usize) {
+        let (Some(lane), Some(slot)) = (self.lanes.get(i), to.lanes.get_mut(j)) else {
+            return;
+        };
+        *slot = *lane;
+        to.state.set_lane(j, &self.state.lane(i));
+        for (t, f) in to.ab.iter_mut().zip(self.ab.iter()) {
+            for (tv, fv) in t.iter_mut().zip(f.iter()) {
+                tv.set(j, fv.lane(i));
+            }
+        }
+        to.inv_g.set(j, self.inv_g.lane(i));
+    }
+
     /// Empties lane `i`, whatever it holds (a rollout whose result is no longer wanted).
     pub fn clear(&mut self, i: usize, task: &Task<N, K>) {
         self.park(i, task);

@@ -16,7 +16,7 @@ use reactionless::reference::{ETA_HAT, paper_task};
 use reactionless::{
     Motion, Planner, PlannerConfig, Pose, Progress, Robot, Rollout, Status, Strategy, Task,
 };
-use reactionless_simd::{ForceAvx2, ForceBaseline, Isa};
+use reactionless_simd::{ForceAvx2, ForceBaseline, Isa, Threaded};
 
 fn scalar<const N: usize, const K: usize>(t: &Task<N, K>, eta: &[[f64; 2]; K], cap: f64) -> String {
     let end = match Rollout::new(t, eta) {
@@ -116,6 +116,31 @@ fn check<E: Engine, const N: usize, const K: usize>(t: &Task<N, K>, seed: u64) {
     assert_eq!(lanes::<E, N, K, 2>(t, &etas), want, "N = {N}, 2 lanes");
 }
 
+/// Chunks of 4 lanes on rayon's threads ([`Threaded`]): 8 lanes (two chunks) and 12
+/// (three), every lane the scalar rollout, bit for bit (N = 6, 7, 9, 12).
+/// Verifies RL-LANE-006.
+#[test]
+fn threaded_lanes_are_the_scalar_rollout() {
+    fn wide<const N: usize, const K: usize>(t: &Task<N, K>, seed: u64) {
+        let etas = etas::<K>(seed);
+        let want: Vec<String> = etas.iter().map(|(e, c)| scalar(t, e, *c)).collect();
+        assert_eq!(
+            lanes::<Threaded, N, K, 8>(t, &etas),
+            want,
+            "N = {N}, 8 lanes"
+        );
+        assert_eq!(
+            lanes::<Threaded, N, K, 12>(t, &etas),
+            want,
+            "N = {N}, 12 lanes"
+        );
+    }
+    wide::<7, 4>(&paper_task().unwrap(), 1);
+    wide::<6, 3>(&task::<6, 3>(2), 2);
+    wide::<9, 6>(&task::<9, 6>(3), 3);
+    wide::<12, 9>(&task::<12, 9>(4), 4);
+}
+
 fn every_size<E: Engine>() {
     check::<E, 7, 4>(&paper_task().unwrap(), 1);
     check::<E, 6, 3>(&task::<6, 3>(2), 2);
@@ -143,9 +168,17 @@ fn the_avx2_build_is_the_scalar_rollout() {
 }
 
 fn plan<const L: usize, E: Engine>(cfg: PlannerConfig) -> String {
+    plan_sliced::<L, E>(cfg, 3000)
+}
+
+/// The plan, in calls of `budget`; no call spends more than `budget`.
+fn plan_sliced<const L: usize, E: Engine>(cfg: PlannerConfig, budget: u32) -> String {
     let mut p: Planner<7, 4, 64, L, E> = Planner::new(paper_task().unwrap(), cfg).unwrap();
     loop {
-        if let Status::Finished(plan) = p.step(3000, &mut ()).unwrap() {
+        let before = p.spent();
+        let status = p.step(budget, &mut ()).unwrap();
+        assert!(p.spent() - before <= u64::from(budget), "a call overspent");
+        if let Status::Finished(plan) = status {
             return format!("{plan:?}");
         }
     }
@@ -169,6 +202,23 @@ fn every_build_plans_the_scalar_plan() {
         if Isa::Avx2.available() {
             assert_eq!(plan::<4, ForceAvx2>(cfg), want);
         }
+        assert_eq!(plan::<8, Threaded>(cfg), want, "8 lanes on threads");
     }
     let _ = ETA_HAT;
+}
+
+/// Planning with 8 lanes on threads ([`Threaded`]) gives the scalar planner's plan under
+/// any slicing, and no call spends more than its budget.
+/// Verifies RL-LANE-006.
+#[test]
+fn threaded_planning_gives_the_scalar_plan_under_any_slicing() {
+    let cfg = PlannerConfig::default_with_seed(3);
+    let want = plan::<1, reactionless::batch::Portable>(cfg);
+    for budget in [1, 7, 1000, u32::MAX] {
+        assert_eq!(
+            plan_sliced::<8, Threaded>(cfg, budget),
+            want,
+            "budget {budget}"
+        );
+    }
 }

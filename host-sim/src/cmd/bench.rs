@@ -6,8 +6,9 @@
 //! planner: candidates in lanes). The η timed for steps and rollouts is the seed-1 plan's.
 //!
 //! `lanes`: rollouts integrated side by side ([`reactionless::batch`]) in the build of the
-//! kernel this CPU runs (`isa`), for 2 and 4 lanes: the η of the plans of seeds 1..L, one
-//! per lane; per rollout-equivalent (the time of L rollouts divided by L), the median of 21
+//! kernel this CPU runs (`isa`), for 2 and 4 lanes on one thread and 8 lanes as two chunks
+//! of 4 on two threads (host-sim's planner): the η of the plans of seeds 1..L, one per
+//! lane; per rollout-equivalent (the time of L rollouts divided by L), the median of 21
 //! runs, and the throughput against the scalar rollout (`speedup`).
 
 use crate::args::parse_strategy;
@@ -18,7 +19,7 @@ use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use reactionless::batch::{Batch, Engine};
 use reactionless::{Progress, Rollout, Strategy};
-use reactionless_simd::{Isa, Native};
+use reactionless_simd::{Isa, Native, Threaded};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -55,6 +56,8 @@ pub struct BenchJson {
 pub struct LanesRun {
     /// Lanes (rollouts in lockstep).
     pub lanes: usize,
+    /// Threads they ran on (8 lanes: two chunks of 4, on up to two threads).
+    pub threads: usize,
     /// Median time of L full rollouts, divided by L (µs).
     pub rollout_us: f64,
     /// The same per integration step (ns).
@@ -125,29 +128,36 @@ fn run(task_path: &Path, json: bool, strategy: Option<Strategy>) -> Result<(), C
         println!("converged       {:10}    of 10", report.plan_converged);
         for l in &report.lanes {
             println!(
-                "{} lanes ({})   {:10.1} µs per rollout ({:.1} ns per step), {:.2}x the scalar rollout",
-                l.lanes, report.isa, l.rollout_us, l.step_ns, l.speedup
+                "{} lanes ({}, {} thread{}) {:8.1} µs per rollout ({:.1} ns per step), {:.2}x the scalar rollout",
+                l.lanes,
+                report.isa,
+                l.threads,
+                if l.threads == 1 { "" } else { "s" },
+                l.rollout_us,
+                l.step_ns,
+                l.speedup
             );
         }
     }
     Ok(())
 }
 
-/// Median time of `L` rollouts of `etas` (the first `L`) side by side, divided by `L` (µs).
-fn time_lanes<const N: usize, const K: usize, const L: usize>(
+/// Median time of `L` rollouts of `etas` (the first `L`, repeated if there are fewer) side
+/// by side in engine `E`, divided by `L` (µs).
+fn time_lanes<E: Engine, const N: usize, const K: usize, const L: usize>(
     task: &reactionless::Task<N, K>,
     etas: &[[[f64; 2]; K]],
 ) -> Result<f64, CliError> {
     let mut per = Vec::new();
     for _ in 0..21 {
         let mut b: Batch<N, K, L> = Batch::new(task);
-        for (i, eta) in etas.iter().take(L).enumerate() {
+        for (i, eta) in etas.iter().cycle().take(L).enumerate() {
             b.load(i, task, eta, f64::INFINITY)
                 .or_failed(|| "rollout")?;
         }
         let start = Instant::now();
         while b.running() > 0 {
-            Native::run(&mut b, task, u32::MAX, [false; L]);
+            E::run(&mut b, task, u32::MAX, [false; L]);
         }
         per.push(start.elapsed().as_secs_f64() * 1e6 / L as f64);
         std::hint::black_box(b.take(0));
@@ -209,15 +219,21 @@ fn bench_n<const N: usize, const K: usize>(
         }
     }
     let rollout_us = median(&per_rollout);
-    let lane = |lanes: usize, us: f64| LanesRun {
+    let lane = |lanes: usize, threads: usize, us: f64| LanesRun {
         lanes,
+        threads,
         rollout_us: us,
         step_ns: us * 1e3 / f64::from(steps),
         speedup: rollout_us / us,
     };
     let lanes = vec![
-        lane(2, time_lanes::<N, K, 2>(&task, &etas)?),
-        lane(4, time_lanes::<N, K, 4>(&task, &etas)?),
+        lane(2, 1, time_lanes::<Native, N, K, 2>(&task, &etas)?),
+        lane(4, 1, time_lanes::<Native, N, K, 4>(&task, &etas)?),
+        lane(
+            8,
+            rayon::current_num_threads().min(8 / reactionless_simd::CHUNK),
+            time_lanes::<Threaded, N, K, 8>(&task, &etas)?,
+        ),
     ];
     Ok(BenchJson {
         n: N,

@@ -241,6 +241,17 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
         to.inv_g.set(j, self.inv_g.lane(i));
     }
 
+    /// Whether a lane would move in a lane-step with `hold`: one runs and is not held
+    /// ([`Batch::kernel`] does no work otherwise).
+    #[inline(always)]
+    #[must_use]
+    pub fn moves(&self, hold: [bool; L]) -> bool {
+        self.lanes
+            .iter()
+            .zip(hold)
+            .any(|(l, h)| !h && matches!(l, Lane::Running { .. }))
+    }
+
     /// Empties lane `i`, whatever it holds (a rollout whose result is no longer wanted).
     pub fn clear(&mut self, i: usize, task: &Task<N, K>) {
         self.park(i, task);
@@ -285,7 +296,6 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
         if lane_steps == 0 {
             return 0;
         }
-        let moving = |l: &Lane<N, K>, h: bool| !h && matches!(l, Lane::Running { .. });
         let capped = self
             .lanes
             .iter()
@@ -296,7 +306,7 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
             .iter()
             .zip(hold)
             .any(|(l, h)| h && matches!(l, Lane::Running { .. }));
-        if !self.lanes.iter().zip(hold).any(|(l, h)| moving(l, h)) {
+        if !self.moves(hold) {
             // Nothing would move: no work, and nothing would ever end the loop.
             return 0;
         }

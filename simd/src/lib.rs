@@ -20,7 +20,7 @@
 //! never mix), so the plan keeps its bits too.
 //!
 //! ```
-//! use reactionless::batch::{Batch, Engine, Lane};
+//! use reactionless::batch::{Batch, Engine};
 //! use reactionless::reference::{ETA_HAT, paper_task};
 //! use reactionless_simd::{Isa, Native};
 //! let task = paper_task().unwrap();
@@ -34,7 +34,7 @@
 
 use rayon::prelude::*;
 use reactionless::Task;
-use reactionless::batch::{Batch, Engine, Lane};
+use reactionless::batch::{Batch, Engine};
 use std::sync::OnceLock;
 
 /// The environment variable that overrides the build [`Native`] runs: `auto` (the
@@ -271,24 +271,19 @@ impl Engine for Threaded {
                 (b, h)
             })
             .collect();
-        // Only chunks with a lane to move are worth a thread; one such chunk runs here.
-        let moving = |(b, h): &(Batch<N, K, CHUNK>, [bool; CHUNK])| {
-            b.lanes()
-                .iter()
-                .zip(h)
-                .any(|(l, h)| !h && matches!(l, Lane::Running { .. }))
-        };
-        let work = match chunks.iter().filter(|c| moving(c)).count() {
-            0 => 0,
-            1 => chunks
-                .iter_mut()
-                .filter(|c| moving(c))
-                .map(|(b, h)| isa.run(b, task, lane_steps, *h))
-                .sum(),
-            _ => chunks
+        let moving = chunks.iter().filter(|(b, h)| b.moves(*h)).count();
+        let work = if moving > 1 {
+            chunks
                 .par_iter_mut()
                 .map(|(b, h)| isa.run(b, task, lane_steps, *h))
-                .sum(),
+                .sum()
+        } else {
+            // One chunk at most has a lane to move: no thread is worth waking (a chunk with
+            // nothing to move returns at once).
+            chunks
+                .iter_mut()
+                .map(|(b, h)| isa.run(b, task, lane_steps, *h))
+                .sum()
         };
         for (c, (b, _)) in chunks.iter().enumerate() {
             for j in 0..CHUNK {

@@ -10,7 +10,9 @@
 #   scripts/bless-records.sh paper arm12-ms  # only these
 #
 # Each line: record name, task file, seed, refinement tolerance ("-" for none), strategy,
-# what refinement drives (planner or truth).
+# what refinement drives (planner or truth). Every record is made with --paper (success at
+# σ_e, refined only to the listed tolerance), the settings they were first blessed with,
+# whatever the goal's defaults are.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
@@ -19,8 +21,8 @@ want=" $* "
 while read -r name task seed refine strategy against; do
   [ -z "$name" ] && continue
   if [ $# -gt 0 ] && [[ "$want" != *" $name "* ]]; then continue; fi
-  args=(record "$task" --seed "$seed" --strategy "$strategy" --refine-against "$against"
-        --out "tests/records/$name.json")
+  args=(record "$task" --paper --seed "$seed" --strategy "$strategy"
+        --refine-against "$against" --out "tests/records/$name.json")
   [ "$refine" != "-" ] && args+=(--refine-tolerance "$refine")
   "$H" "${args[@]}"
 done <<'LIST'

@@ -175,8 +175,9 @@ pub enum BlockFault {
     Field,
 }
 
-/// Everything that can go wrong, as a small `Copy` value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Everything that can go wrong, as a small `Copy` value. A variant that breaks a limit
+/// carries the limit, so this module depends on no other.
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Error {
@@ -186,20 +187,36 @@ pub enum Error {
     NotPositive(Param),
     /// An inertia tensor is not positive definite.
     InertiaNotPositiveDefinite(Body),
-    /// A joint axis is not a unit vector (|‖axis‖ − 1| > [`crate::UNIT_TOLERANCE`]).
-    AxisNotUnit(u8),
+    /// A joint axis is not a unit vector: `|‖axis‖ − 1| > tolerance`
+    /// ([`crate::UNIT_TOLERANCE`]).
+    AxisNotUnit {
+        /// The joint (1-based).
+        joint: u8,
+        /// The largest accepted `|‖axis‖ − 1|`.
+        tolerance: f64,
+    },
     /// A joint's lower limit is not below its upper limit.
     LimitsInverted(u8),
     /// A start angle lies outside its joint limits.
     StartOutsideLimits(u8),
-    /// A quaternion's norm differs from 1 by more than [`crate::UNIT_TOLERANCE`].
-    QuaternionNotUnit,
+    /// A quaternion's norm differs from 1 by more than `tolerance`
+    /// ([`crate::UNIT_TOLERANCE`]).
+    QuaternionNotUnit {
+        /// The largest accepted `|‖q‖ − 1|`.
+        tolerance: f64,
+    },
     /// `t_f` is not a whole multiple of `dt` (relative tolerance 1e-9).
     StepsNotInteger,
-    /// `t_f / dt` exceeds [`crate::MAX_STEPS`].
-    TooManySteps,
-    /// The time-law degree `n` is outside `1..=`[`crate::MAX_DEGREE`].
-    DegreeOutOfRange,
+    /// `t_f / dt` exceeds `max` ([`crate::MAX_STEPS`]).
+    TooManySteps {
+        /// The most integration steps a path may have.
+        max: u32,
+    },
+    /// The time-law degree `n` is outside `1..=max` ([`crate::MAX_DEGREE`]).
+    DegreeOutOfRange {
+        /// The largest degree.
+        max: u32,
+    },
     /// A slice has the wrong length.
     WrongLength {
         /// Length required.
@@ -246,8 +263,11 @@ pub enum Error {
     NotInitialized,
     /// A re-timing margin factor above 1 (it must lie in (0, 1]).
     MarginAboveOne,
-    /// A re-timing grid of fewer than [`crate::retime::MIN_GRID`] points.
-    GridTooSmall,
+    /// A re-timing grid of fewer than `min` points ([`crate::retime::MIN_GRID`]).
+    GridTooSmall {
+        /// The fewest grid points.
+        min: u32,
+    },
     /// A path to re-time has no length (fewer than two distinct samples, or not finite).
     PathTooShort,
     /// The path's speed vanishes inside it (it stops and moves on, or turns back) at
@@ -337,10 +357,9 @@ impl fmt::Display for Error {
             Error::InertiaNotPositiveDefinite(b) => {
                 write!(f, "inertia of {b} is not positive definite")
             }
-            Error::AxisNotUnit(j) => write!(
+            Error::AxisNotUnit { joint, tolerance } => write!(
                 f,
-                "axis of joint {j} is not a unit vector (|norm - 1| > {:e})",
-                crate::UNIT_TOLERANCE
+                "axis of joint {joint} is not a unit vector (|norm - 1| > {tolerance:e})"
             ),
             Error::LimitsInverted(j) => {
                 write!(f, "joint {j}: lower limit is not below the upper limit")
@@ -348,19 +367,16 @@ impl fmt::Display for Error {
             Error::StartOutsideLimits(j) => {
                 write!(f, "start angle of joint {j} is outside its limits")
             }
-            Error::QuaternionNotUnit => write!(
+            Error::QuaternionNotUnit { tolerance } => write!(
                 f,
-                "quaternion is not unit length (|norm - 1| > {:e})",
-                crate::UNIT_TOLERANCE
+                "quaternion is not unit length (|norm - 1| > {tolerance:e})"
             ),
             Error::StepsNotInteger => f.write_str("t_f is not a whole multiple of dt"),
-            Error::TooManySteps => write!(
-                f,
-                "t_f / dt exceeds the maximum of {} integration steps",
-                crate::MAX_STEPS
-            ),
-            Error::DegreeOutOfRange => {
-                write!(f, "time-law degree n must be in 1..={}", crate::MAX_DEGREE)
+            Error::TooManySteps { max } => {
+                write!(f, "t_f / dt exceeds the maximum of {max} integration steps")
+            }
+            Error::DegreeOutOfRange { max } => {
+                write!(f, "time-law degree n must be in 1..={max}")
             }
             Error::WrongLength { expected, got } => {
                 write!(f, "expected {expected} values, got {got}")
@@ -392,11 +408,9 @@ impl fmt::Display for Error {
             Error::InertiaWeightsInverted => f.write_str("w_min must not exceed w_max"),
             Error::NotInitialized => f.write_str("the planner has no task yet (call reset)"),
             Error::MarginAboveOne => f.write_str("retime margin must lie in (0, 1]"),
-            Error::GridTooSmall => write!(
-                f,
-                "retime grid must have at least {} points",
-                crate::retime::MIN_GRID
-            ),
+            Error::GridTooSmall { min } => {
+                write!(f, "retime grid must have at least {min} points")
+            }
             Error::PathTooShort => f.write_str("the path to re-time has no length"),
             Error::PathStalls { sample } => write!(
                 f,

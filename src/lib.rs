@@ -13,12 +13,22 @@
 //! the base frame at `t = 0`; matrices that describe one configuration ([`Frames`],
 //! [`Momentum`], [`Basis`]) are in the base frame.
 //!
-//! Data flows one way: [`model`] → [`kinematics`] → [`momentum`] → [`nullspace`] →
-//! [`trajectory`] / [`task`] → [`rollout`] → [`optimizer`] ([`cpso`] over [`swarm`],
-//! [`refine`]) → [`planner`], and [`execute`] streams a plan's setpoints; [`config`] holds
-//! every planner setting, [`truth`] checks a trajectory, [`random`] is the only source of
-//! randomness, [`reference`] holds the reference scenario of spec §8; [`retime`] re-times a
-//! planned path to minimum time under joint rate and acceleration limits.
+//! The modules are grouped by layer, and data flows one way, from the bottom up:
+//! - foundations: [`error`] (every failure, a small `Copy` enum) and [`lanes`] (the
+//!   arithmetic of one number or of several side by side);
+//! - [`physics`]: [`model`] → [`kinematics`] → [`momentum`] → [`nullspace`], one
+//!   configuration of the robot;
+//! - [`path`]: [`trajectory`] / [`task`] → [`rollout`] (and [`batch`] in lanes), [`truth`]
+//!   along a path, [`digest`], [`retime`];
+//! - [`search`]: [`config`] (every planner setting), [`random`] (the only source of
+//!   randomness), the [`optimizer`] seam and the strategies behind it ([`strategy`]:
+//!   [`multistart`], [`cpso`] over [`swarm`]), [`refine`];
+//! - [`flight`]: the [`planner`] that drives a search over rollouts under a budget,
+//!   [`block`] (a whole task as bytes), [`execute`] (a plan's setpoints) and [`reference`]
+//!   (the scenario of spec §8).
+//!
+//! Each folder's `mod.rs` says what its layer owns and what it may use; every module keeps
+//! its flat path (`reactionless::planner`).
 //!
 //! Verifies RL-GOLD-004.
 //!
@@ -53,32 +63,19 @@
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
-pub mod batch;
-pub mod block;
-pub mod config;
-pub mod cpso;
-pub mod digest;
 pub mod error;
-pub mod execute;
-pub mod geometry;
-pub mod integrator;
-pub mod kinematics;
+pub mod flight;
 pub mod lanes;
-pub mod model;
-pub mod momentum;
-pub mod multistart;
-pub mod nullspace;
-pub mod optimizer;
-pub mod planner;
-pub mod random;
-pub mod reference;
-pub mod refine;
-pub mod retime;
-pub mod rollout;
-pub mod swarm;
-pub mod task;
-pub mod trajectory;
-pub mod truth;
+pub mod path;
+pub mod physics;
+pub mod search;
+
+// Every module keeps its flat path (`reactionless::planner`, `crate::rollout`): the folders
+// group them by layer, the paths stay what they were.
+pub use flight::{block, execute, planner, reference};
+pub use path::{batch, digest, integrator, retime, rollout, task, trajectory, truth};
+pub use physics::{geometry, kinematics, model, momentum, nullspace};
+pub use search::{config, cpso, multistart, optimizer, random, refine, strategy, swarm};
 
 pub use config::{
     MAX_WINDOW, PlannerConfig, RefineAgainst, RefineConfig, StagnationConfig, Strategy,
@@ -97,7 +94,8 @@ pub use optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Sto
 pub use planner::{Plan, Planner, Running, Stage, Status};
 pub use refine::{RefineReport, RefineStop};
 pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
+pub use strategy::{Method, Search, SearchReport};
 pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
-pub use truth::{TruthModel, TruthState};
+pub use truth::{TRUTH_SUBSTEPS, TruthModel, TruthState};

@@ -175,7 +175,7 @@ fn stagnation_alarm_fires_on_a_flat_history_and_splits_half_and_half() {
 fn the_swarm_starts_uniform_in_the_eta_box_at_rest() {
     // The reference settings through the planner: T = 40, B = 5, 2K = 8.
     let p = RefPlanner::new(paper_task(), PlannerConfig::reference(4)).unwrap();
-    let s = p.swarm();
+    let s = p.swarm().unwrap();
     assert_eq!(s.count(), 40);
     assert!(s.particle(40).is_none());
     let mut u = Stream::new(4);
@@ -639,7 +639,10 @@ fn failed_rollouts_are_infeasible_particles_with_a_defined_cost() {
         Err(Error::EtaTooLarge),
         "the failure is sticky"
     );
-    assert_eq!(p.swarm().particle(0).unwrap().best_cost, Cost::FAILED);
+    assert_eq!(
+        p.swarm().unwrap().particle(0).unwrap().best_cost,
+        Cost::FAILED
+    );
 }
 
 /// The task constructor names each bad start and target; a quaternion within 1e-6 of unit
@@ -668,7 +671,9 @@ fn task_constructor_names_every_bad_input() {
     };
     assert_eq!(
         Task::<7, 4>::new(robot(), q0(), zero, m).unwrap_err(),
-        Error::QuaternionNotUnit
+        Error::QuaternionNotUnit {
+            tolerance: reactionless::UNIT_TOLERANCE
+        }
     );
     let nan = Pose {
         position: [0.0, f64::NAN, 0.0],

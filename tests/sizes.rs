@@ -5,10 +5,12 @@
 #![allow(missing_docs)]
 
 use core::mem::size_of;
-use reactionless::{Basis, Frames, Multistart, Outcome, Planner, Robot, Rollout, Task, TimeLaw};
+use reactionless::{
+    Basis, Cpso, Frames, Multistart, Outcome, Planner, Robot, Rollout, Search, Task, TimeLaw,
+};
 
 /// `size_of` of Task<7, 4>, Rollout<7, 4> and Planner<7, 4, 64> equal the README's x86-64
-/// figures.
+/// figures, and the planner holds one strategy's search, not all of them.
 /// Verifies RL-CORE-005.
 #[test]
 fn documented_sizes_for_the_reference_robot() {
@@ -20,7 +22,18 @@ fn documented_sizes_for_the_reference_robot() {
         ("TimeLaw<4>", size_of::<TimeLaw<4>>()),
         ("Frames<7>", size_of::<Frames<7>>()),
         ("Outcome<7>", size_of::<Outcome<7>>()),
-        ("Multistart<7, 4>", size_of::<Multistart<7, 4>>()),
+        (
+            "Multistart<7, 4> (the default strategy's state)",
+            size_of::<Multistart<7, 4>>(),
+        ),
+        (
+            "Cpso<4, 64> (C-PSO's state, 64 particles)",
+            size_of::<Cpso<4, 64>>(),
+        ),
+        (
+            "Search<7, 4, 64> (the larger of the two)",
+            size_of::<Search<7, 4, 64>>(),
+        ),
         ("Planner<7, 4, 64>", size_of::<Planner<7, 4, 64>>()),
     ];
     for (name, size) in sizes {
@@ -28,8 +41,15 @@ fn documented_sizes_for_the_reference_robot() {
     }
     assert_eq!(size_of::<Task<7, 4>>(), 3432);
     assert_eq!(size_of::<Rollout<7, 4>>(), 856);
-    assert_eq!(size_of::<Planner<7, 4, 64>>(), 37952);
+    assert_eq!(size_of::<Planner<7, 4, 64>>(), 24144);
     assert_eq!(size_of::<Multistart<7, 4>>(), 13808);
+    assert_eq!(size_of::<Cpso<4, 64>>(), 16608);
+    // Only the chosen strategy's state occupies the planner: the search is the larger of
+    // the two (its tag lives in a niche), not both.
+    assert_eq!(
+        size_of::<Search<7, 4, 64>>(),
+        size_of::<Multistart<7, 4>>().max(size_of::<Cpso<4, 64>>())
+    );
 }
 
 /// `GridPoint<N>` is `8(N+1)` bytes (docs/retime.md, "Storage"); the stream's state is

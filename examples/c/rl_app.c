@@ -72,12 +72,12 @@ static void plan_frame(void) {
         App.hk.checkpoints++;
         return;
     }
-    if (s != RL_CONVERGED && s != RL_EXHAUSTED) {
+    if (s != RL_CONVERGED && s != RL_EXHAUSTED && s != RL_STALLED) {
         fail("planning", s);
         return;
     }
     App.svc.event(RL_APP_EID_PLANNED, "INFO",
-                  s == RL_CONVERGED ? "plan converged" : "plan exhausted its budget",
+                  s == RL_CONVERGED ? "plan converged" : rl_status_str(s),
                   (int32_t)App.plan.rollouts);
     /* The plan is done: a stale checkpoint must not resume planning after a reset. */
     memset(App.svc.cds, 0, App.svc.cds_len);

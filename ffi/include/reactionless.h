@@ -22,7 +22,7 @@
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 1
+#define RL_ABI_VERSION 2
 
 /*
  Joints of the flight robot (N).
@@ -38,7 +38,7 @@
  Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_PLANNER_WORDS 4864
+#define RL_PLANNER_WORDS 3120
 
 /*
  Words (u64) of stream storage inside [`rl_setpoints`].
@@ -52,7 +52,7 @@
 #define RL_CHECKPOINT_CAPACITY ((RL_PLANNER_WORDS * 8) + 64)
 
 /*
- A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_DONE`, or an error
+ A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`, or an error
  (every error is negative). [`rl_status_str`] names each.
  */
 typedef int32_t rl_status;
@@ -81,7 +81,7 @@ typedef struct rl_planner {
 } rl_planner;
 
 /*
- A finished plan (filled by `rl_planner_step` on `RL_CONVERGED` or `RL_EXHAUSTED`).
+ A finished plan (filled by `rl_planner_step` on `RL_CONVERGED`, `RL_EXHAUSTED` or `RL_STALLED`).
  */
 typedef struct rl_plan {
     /*
@@ -190,12 +190,13 @@ typedef struct rl_setpoint {
 #define RL_RUNNING 1
 
 /*
- Planning is over and the plan met its tolerance.
+ Planning is over and the plan meets what the block asks for (Φ = 0, f ≤ σ_e and, when
+ the block sets a refinement tolerance, f or `truth_f` within it).
  */
 #define RL_CONVERGED 2
 
 /*
- Planning is over with the rollout budget spent: the plan is the best found.
+ Planning is over, not converged: a budget was spent first. The plan is the best found.
  */
 #define RL_EXHAUSTED 3
 
@@ -203,6 +204,12 @@ typedef struct rl_setpoint {
  The stream has produced its last setpoint.
  */
 #define RL_DONE 4
+
+/*
+ Planning is over, not converged: the search or its refinement could get no closer (a
+ floor above the asked tolerance). The plan is the best found.
+ */
+#define RL_STALLED 5
 
 /*
  A pointer argument is NULL.
@@ -350,14 +357,16 @@ rl_status rl_planner_load_block(struct rl_planner *p, const uint8_t *block, size
 /*
  Plans for at most `budget` units of work (integration steps; the task block's frame
  budget is the intended value, see `rl_planner_frame_budget`). Returns `RL_RUNNING` while
- there is more to do, then `RL_CONVERGED` or `RL_EXHAUSTED` with `*plan` filled (and the
+ there is more to do, then `RL_CONVERGED`, `RL_EXHAUSTED` or `RL_STALLED` with `*plan` filled (and the
  same again, without work, on every later call). `plan` is untouched while running.
 
  # Safety
  `p` is NULL or an initialised planner and `plan` NULL or a writable rl_plan, neither
  accessed elsewhere during the call.
  */
-rl_status rl_planner_step(struct rl_planner *p, uint32_t budget, struct rl_plan *plan);
+rl_status rl_planner_step(struct rl_planner *p,
+                          uint32_t budget,
+                          struct rl_plan *plan);
 
 /*
  The loaded task's frame budget (integration steps per `rl_planner_step` call, from the
@@ -370,7 +379,7 @@ rl_status rl_planner_frame_budget(const struct rl_planner *p, uint32_t *budget);
 
 /*
  Starts streaming the setpoints of `p`'s finished plan into `s` (`RL_E_NO_PLAN` before
- `rl_planner_step` returned `RL_CONVERGED` or `RL_EXHAUSTED`).
+ `rl_planner_step` returned `RL_CONVERGED`, `RL_EXHAUSTED` or `RL_STALLED`).
 
  # Safety
  `s` is NULL or writable, aligned storage of `sizeof(rl_setpoints)` bytes (it need not be

@@ -51,7 +51,7 @@ pub mod checkpoint;
 use core::ffi::c_char;
 use core::mem::{align_of, size_of};
 use reactionless::block::decode;
-use reactionless::{BlockFault, Error, Plan, Planner, Setpoints, Status, Strategy};
+use reactionless::{BlockFault, Error, Plan, Planner, Setpoints, Status, Stop};
 
 /// The flight planner: 7 joints, null-space dimension 4, swarm capacity 64.
 pub type FlightPlanner = Planner<7, 4, 64>;
@@ -59,21 +59,21 @@ pub type FlightPlanner = Planner<7, 4, 64>;
 pub type FlightSetpoints = Setpoints<7, 4>;
 
 /// Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
-pub const RL_ABI_VERSION: u32 = 1;
+pub const RL_ABI_VERSION: u32 = 2;
 /// Joints of the flight robot (N).
 pub const RL_JOINTS: usize = 7;
 /// Entries of η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
 pub const RL_ETA_LEN: usize = 8;
 /// Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
 /// target, with headroom so that a small growth of the core keeps the ABI.
-pub const RL_PLANNER_WORDS: usize = 4864;
+pub const RL_PLANNER_WORDS: usize = 3120;
 /// Words (u64) of stream storage inside [`rl_setpoints`].
 pub const RL_SETPOINTS_WORDS: usize = 192;
 /// Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at
 /// most this), for sizing a static buffer or a CDS block at compile time.
 pub const RL_CHECKPOINT_CAPACITY: usize = RL_PLANNER_WORDS * 8 + 64;
 
-/// A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_DONE`, or an error
+/// A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`, or an error
 /// (every error is negative). [`rl_status_str`] names each.
 pub type rl_status = i32;
 
@@ -81,12 +81,16 @@ pub type rl_status = i32;
 pub const RL_OK: rl_status = 0;
 /// The planner spent its budget and has more to do.
 pub const RL_RUNNING: rl_status = 1;
-/// Planning is over and the plan met its tolerance.
+/// Planning is over and the plan meets what the block asks for (Φ = 0, f ≤ σ_e and, when
+/// the block sets a refinement tolerance, f or `truth_f` within it).
 pub const RL_CONVERGED: rl_status = 2;
-/// Planning is over with the rollout budget spent: the plan is the best found.
+/// Planning is over, not converged: a budget was spent first. The plan is the best found.
 pub const RL_EXHAUSTED: rl_status = 3;
 /// The stream has produced its last setpoint.
 pub const RL_DONE: rl_status = 4;
+/// Planning is over, not converged: the search or its refinement could get no closer (a
+/// floor above the asked tolerance). The plan is the best found.
+pub const RL_STALLED: rl_status = 5;
 
 /// A pointer argument is NULL.
 pub const RL_E_NULL: rl_status = -1;
@@ -173,7 +177,7 @@ pub struct rl_setpoints {
     storage: [u64; RL_SETPOINTS_WORDS],
 }
 
-/// A finished plan (filled by `rl_planner_step` on `RL_CONVERGED` or `RL_EXHAUSTED`).
+/// A finished plan (filled by `rl_planner_step` on `RL_CONVERGED`, `RL_EXHAUSTED` or `RL_STALLED`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct rl_plan {
@@ -251,10 +255,7 @@ impl rl_plan {
             stagnation_events: p.stagnation_events,
             restarts: p.restarts,
             converged: u32::from(p.converged()),
-            strategy: match p.strategy {
-                Strategy::Multistart => 0,
-                Strategy::Cpso => 1,
-            },
+            strategy: p.strategy.code(),
             end_position: p.outcome.end_pose.position,
             end_quat_wxyz: p.outcome.end_pose.quat_wxyz,
         }
@@ -331,10 +332,10 @@ impl rl_planner {
             Ok(Status::Running(_)) => RL_RUNNING,
             Ok(Status::Finished(p)) => {
                 *plan = rl_plan::of(&p);
-                if p.converged() {
-                    RL_CONVERGED
-                } else {
-                    RL_EXHAUSTED
+                match p.stop {
+                    Stop::Converged => RL_CONVERGED,
+                    Stop::Exhausted => RL_EXHAUSTED,
+                    Stop::Stalled => RL_STALLED,
                 }
             }
             Err(Error::NotInitialized) => RL_E_NO_TASK,
@@ -522,7 +523,7 @@ pub unsafe extern "C" fn rl_planner_load_block(
 
 /// Plans for at most `budget` units of work (integration steps; the task block's frame
 /// budget is the intended value, see `rl_planner_frame_budget`). Returns `RL_RUNNING` while
-/// there is more to do, then `RL_CONVERGED` or `RL_EXHAUSTED` with `*plan` filled (and the
+/// there is more to do, then `RL_CONVERGED`, `RL_EXHAUSTED` or `RL_STALLED` with `*plan` filled (and the
 /// same again, without work, on every later call). `plan` is untouched while running.
 ///
 /// # Safety
@@ -568,7 +569,7 @@ pub unsafe extern "C" fn rl_planner_frame_budget(
 }
 
 /// Starts streaming the setpoints of `p`'s finished plan into `s` (`RL_E_NO_PLAN` before
-/// `rl_planner_step` returned `RL_CONVERGED` or `RL_EXHAUSTED`).
+/// `rl_planner_step` returned `RL_CONVERGED`, `RL_EXHAUSTED` or `RL_STALLED`).
 ///
 /// # Safety
 /// `s` is NULL or writable, aligned storage of `sizeof(rl_setpoints)` bytes (it need not be
@@ -700,7 +701,8 @@ pub extern "C" fn rl_status_str(s: rl_status) -> *const c_char {
         RL_OK => c"RL_OK: success",
         RL_RUNNING => c"RL_RUNNING: budget spent, more to do",
         RL_CONVERGED => c"RL_CONVERGED: the plan met its tolerance",
-        RL_EXHAUSTED => c"RL_EXHAUSTED: rollout budget spent, best plan found",
+        RL_EXHAUSTED => c"RL_EXHAUSTED: a budget was spent first, best plan found",
+        RL_STALLED => c"RL_STALLED: no step got closer to the target, best plan found",
         RL_DONE => c"RL_DONE: last setpoint produced",
         RL_E_NULL => c"RL_E_NULL: a pointer argument is NULL",
         RL_E_ABI_VERSION => c"RL_E_ABI_VERSION: header and library ABI versions differ",

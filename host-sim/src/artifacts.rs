@@ -12,12 +12,10 @@ use crate::output::{CsvSink, OutDir};
 use crate::plots::{self, PlotData};
 use crate::taskfile::{self, LoadedTask};
 use reactionless::{
-    IDENTITY_WXYZ, Outcome, Pose, Rollout, Sample, Sink, Task, TrajectoryDigest, TruthModel,
+    IDENTITY_WXYZ, Outcome, Pose, Rollout, Sample, Sink, TRUTH_SUBSTEPS, Task, TrajectoryDigest,
+    TruthModel,
 };
 use serde::{Deserialize, Serialize};
-
-/// Truth-model midpoint sub-steps per integration step.
-pub const TRUTH_SUBSTEPS: u32 = 10;
 
 /// `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -180,16 +178,18 @@ pub fn write_rollout<const N: usize, const K: usize>(
     })
 }
 
-/// Writes the self-contained task bundle (`task.toml`, `robot.urdf`) into `dir`.
+/// Writes the self-contained task bundle (`task.toml`, `robot.urdf`) into `dir`: for a
+/// plan, with every setting it used ([`LoadedTask::bundle`]). Returns the task as the
+/// bundle holds it (what `check` and `retime` of `dir` will read).
 pub fn write_bundle(
     lt: &LoadedTask,
     dir: &OutDir,
-    seed: Option<u64>,
-    refine: Option<f64>,
-) -> Result<(), CliError> {
-    let (task, urdf) = lt.bundle(seed, refine)?;
+    used: Option<(&reactionless::PlannerConfig, &crate::goal::Asked)>,
+) -> Result<LoadedTask, CliError> {
+    let (task, urdf) = lt.bundle(used)?;
     dir.write(taskfile::BUNDLE_TASK, task.as_bytes())?;
-    dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
+    dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())?;
+    taskfile::from_texts(&lt.path, &task, &urdf)
 }
 
 /// Reads `name` from output directory `dir`; the error says where to point instead.

@@ -27,13 +27,13 @@
 //! 1..N. Stream keys: `splitmix(splitmix(splitmix(seed) ^ sample) ^ kind)` with the kinds
 //! [`Kind`]; each key seeds a [`reactionless::random::Stream`].
 
-use crate::artifacts::TRUTH_SUBSTEPS;
 use crate::error::CliError;
 use crate::output::read_trajectory_csv;
 use crate::retiming;
 pub use crate::taskfile::DispersionSection as Settings;
 use crate::taskfile::LoadedTask;
 use crate::urdf::Chain;
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::random::Stream;
 use reactionless::{BodyDesc, Frames, Inertia, Momentum, Pose, Task, TruthModel, TruthState};
 use serde::{Deserialize, Serialize};

@@ -4,7 +4,7 @@
 //! and checks them. Exit codes: 0 success, 1 a result that does not pass, 2 bad input.
 //! The binary is a thin CLI over this library; tests use the library directly.
 //!
-//! Data flows one way: `taskfile`/`urdf` (inputs) → `drive` (the planner) → `artifacts`,
+//! Data flows one way: `taskfile`/`urdf` (inputs, with `goal`: what a plan must reach) → `drive` (the planner) → `artifacts`,
 //! `records`, `plots`, `view` (outputs, through `output`'s atomic writes), `flight` (the task
 //! block of the flight image and C clients) → `cmd/*` (one leaf per
 //! subcommand, which only these shared modules feed).
@@ -22,6 +22,7 @@ pub mod dispersion_report;
 pub mod drive;
 pub mod error;
 pub mod flight;
+pub mod goal;
 pub mod output;
 pub mod plots;
 pub mod records;

@@ -192,12 +192,7 @@ pub fn outputs_of<const N: usize, const K: usize>(
     let o = &p.outcome;
     Ok(RecordedRun {
         outputs: Outputs {
-            status: if p.converged() {
-                "converged"
-            } else {
-                "not_converged"
-            }
-            .into(),
+            status: crate::goal::status_name(p.converged()).into(),
             iterations: p.iterations,
             rollouts: p.rollouts,
             stagnation_events: p.stagnation_events,

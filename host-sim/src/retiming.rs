@@ -8,10 +8,11 @@
 //! with the limits and grid used, `robot.urdf`, and with `--plots` the rate and
 //! acceleration figures).
 
-use crate::artifacts::{PoseJson, TRUTH_SUBSTEPS};
+use crate::artifacts::PoseJson;
 use crate::error::{CliError, Context};
 use crate::output::OutDir;
 use crate::taskfile::{self, LoadedTask};
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
 use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
 use serde::{Deserialize, Serialize};
@@ -284,7 +285,7 @@ fn write_bundle<const N: usize>(
     grid: u32,
     margin: f64,
 ) -> Result<(), CliError> {
-    let (text, urdf) = lt.bundle(None, None)?;
+    let (text, urdf) = lt.bundle(None)?;
     let mut table: toml::Table = toml::from_str(&text).or_internal(|| "re-reading the task")?;
     let mut limits = toml::Table::new();
     limits.insert(

@@ -5,6 +5,7 @@
 //! relative to the task file. Every error names the file, the key and the value.
 
 use crate::error::{CliError, Context};
+use crate::goal::{Asked, Goal};
 use crate::urdf::{self, Chain};
 use reactionless::{
     Error as CoreError, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy, Task,
@@ -197,13 +198,19 @@ pub struct TargetSection {
     pub position_m: Vec<f64>,
     /// Attitude as a unit quaternion `[w, x, y, z]` (|‖q‖ − 1| ≤ 1e-6).
     pub quat_wxyz: Vec<f64>,
-    /// Largest acceptable end-effector position error (m), > 0; optional. The planner is
-    /// asked to refine to `f ≤` this (`‖e_p‖ ≤ f`), and `check` holds the plan to it.
+    /// Largest acceptable end-effector position error (m), > 0 (default
+    /// [`crate::goal::DEFAULT_POSITION_TOLERANCE_M`]). The planner is asked to refine to
+    /// `f ≤` this (`‖e_p‖ ≤ f`), and `check` holds the plan to it.
     pub position_tolerance_m: Option<f64>,
-    /// Largest acceptable end-effector orientation error (deg), > 0; optional. The planner
-    /// is asked to refine to `f ≤` this in radians (the rotation angle is `≤ f`), and
-    /// `check` holds the plan to it.
+    /// Largest acceptable end-effector orientation error (deg), > 0 (default
+    /// [`crate::goal::DEFAULT_ORIENTATION_TOLERANCE_DEG`]). The planner is asked to refine
+    /// to `f ≤` this in radians (the rotation angle is `≤ f`), and `check` holds the plan
+    /// to it.
     pub orientation_tolerance_deg: Option<f64>,
+    /// What a plan must reach: `"pose"` (the tolerances above, the default) or `"sigma_e"`
+    /// (the paper's `f ≤ σ_e`; `--paper`). See [`crate::goal`].
+    #[serde(default)]
+    pub goal: Goal,
 }
 
 /// `[motion]`: duration and time grid.
@@ -309,62 +316,53 @@ fn toml_error(shown: &impl std::fmt::Display, e: &toml::de::Error) -> CliError {
 
 impl LoadedTask {
     /// The task as a self-contained bundle: the task file re-written with `[robot] urdf =
-    /// "robot.urdf"` and the effective seed and refinement tolerance, and the URDF's text.
+    /// "robot.urdf"` and, for a plan, every planner setting it used (`used`: the whole
+    /// `[planner]` table, flags applied and the refinement tolerance resolved, and `[target]
+    /// goal`), so that `check` judges the bundle by the settings that made it; and the
+    /// URDF's text.
     pub fn bundle(
         &self,
-        seed: Option<u64>,
-        refine: Option<f64>,
+        used: Option<(&PlannerConfig, &Asked)>,
     ) -> Result<(String, String), CliError> {
         let mut table: toml::Table =
             toml::from_str(&self.text).or_internal(|| "re-reading the task")?;
         if let Some(toml::Value::Table(robot)) = table.get_mut("robot") {
             robot.insert("urdf".into(), toml::Value::String(BUNDLE_URDF.into()));
         }
-        let planner = table
-            .entry("planner")
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        if let toml::Value::Table(p) = planner {
-            if let Some(s) = seed {
-                let s = i64::try_from(s).map_err(|_| {
-                    CliError::input(format!("--seed {s} does not fit a TOML integer"))
-                })?;
-                p.insert("seed".into(), toml::Value::Integer(s));
+        if let Some((config, asked)) = used {
+            if i64::try_from(config.seed).is_err() {
+                return Err(CliError::input(format!(
+                    "--seed {} does not fit a TOML integer (at most {})",
+                    config.seed,
+                    i64::MAX
+                )));
             }
-            if let Some(r) = refine {
-                p.insert("refine_tolerance".into(), toml::Value::Float(r));
+            let planner = toml::Value::try_from(config).or_internal(|| "writing [planner]")?;
+            table.insert("planner".into(), planner);
+            if let Some(toml::Value::Table(target)) = table.get_mut("target") {
+                target.insert("goal".into(), toml::Value::String(asked.goal.name().into()));
             }
         }
         let text = toml::to_string(&table).or_internal(|| "writing the task")?;
         Ok((text, self.urdf_text.clone()))
     }
 
-    /// `[target] position_tolerance_m` (m) and `orientation_tolerance_deg` (deg), each
-    /// checked finite and > 0.
-    pub fn pose_tolerances(&self) -> Result<(Option<f64>, Option<f64>), CliError> {
+    /// The goal of this task for `config` (the task's `[planner]` with the command line's
+    /// overrides applied), resolved ([`Asked::resolve`]). `paper` (`--paper`) makes it σ_e
+    /// whatever the task says, its pose tolerances ignored.
+    pub fn asked(&self, config: &PlannerConfig, paper: bool) -> Result<Asked, CliError> {
         let t = &self.file.target;
-        for (key, v) in [
-            ("position_tolerance_m", t.position_tolerance_m),
-            ("orientation_tolerance_deg", t.orientation_tolerance_deg),
-        ] {
-            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
-                return Err(self.err(format!("[target] {key} = {v} must be a finite number > 0")));
-            }
+        let name = self.path.display().to_string();
+        if paper {
+            return Asked::resolve(Goal::SigmaE, config, None, None, &name);
         }
-        Ok((t.position_tolerance_m, t.orientation_tolerance_deg))
-    }
-
-    /// The refinement tolerance on f that meets `refine` and the target's position and
-    /// orientation tolerances together: their smallest (orientation in radians). Each error
-    /// is bounded by `f = ‖(e_p, e_o)‖₂`, so `f ≤` it meets both.
-    pub fn refine_with_pose_tolerances(
-        &self,
-        refine: Option<f64>,
-    ) -> Result<Option<f64>, CliError> {
-        let (p, o) = self.pose_tolerances()?;
-        Ok([refine, p, o.map(f64::to_radians)]
-            .into_iter()
-            .flatten()
-            .reduce(f64::min))
+        Asked::resolve(
+            t.goal,
+            config,
+            t.position_tolerance_m,
+            t.orientation_tolerance_deg,
+            &name,
+        )
     }
 
     /// `[limits] qdd_max_deg_s2` (deg/s², or `accel_deg_s2` for every joint when given),
@@ -455,16 +453,13 @@ impl LoadedTask {
                     "[motion] tf_s = {} is not a whole multiple of dt_s = {}",
                     m.tf_s, m.dt_s
                 ),
-                CoreError::TooManySteps => format!(
-                    "[motion] tf_s / dt_s = {} exceeds the maximum of {} steps",
+                CoreError::TooManySteps { max } => format!(
+                    "[motion] tf_s / dt_s = {} exceeds the maximum of {max} steps",
                     m.tf_s / m.dt_s,
-                    reactionless::MAX_STEPS
                 ),
-                CoreError::DegreeOutOfRange => format!(
-                    "[motion] n = {} is outside 1..={}",
-                    m.n,
-                    reactionless::MAX_DEGREE
-                ),
+                CoreError::DegreeOutOfRange { max } => {
+                    format!("[motion] n = {} is outside 1..={max}", m.n)
+                }
                 other => other.to_string(),
             };
             self.err(what)
@@ -518,12 +513,11 @@ impl LoadedTask {
                     get(&upper)
                 ))
             }
-            CoreError::QuaternionNotUnit => {
+            CoreError::QuaternionNotUnit { tolerance } => {
                 let q = &self.file.target.quat_wxyz;
                 let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
                 self.err(format!(
-                    "[target] quat_wxyz = {q:?} has norm {n}, not 1 (tolerance {:e})",
-                    reactionless::UNIT_TOLERANCE
+                    "[target] quat_wxyz = {q:?} has norm {n}, not 1 (tolerance {tolerance:e})"
                 ))
             }
             CoreError::RankLoss { .. } => self.err(format!(
@@ -542,6 +536,15 @@ impl LoadedTask {
         capacity: usize,
         overrides: &Overrides,
     ) -> Result<PlannerConfig, CliError> {
+        Ok(self.plan_settings(capacity, overrides)?.0)
+    }
+
+    /// [`LoadedTask::planner`] and the goal it was resolved from.
+    pub fn plan_settings(
+        &self,
+        capacity: usize,
+        overrides: &Overrides,
+    ) -> Result<(PlannerConfig, Asked), CliError> {
         let mut config = self.file.planner;
         if let Some(s) = overrides.seed {
             config.seed = s;
@@ -555,7 +558,8 @@ impl LoadedTask {
         if let Some(a) = overrides.refine_against {
             config.refine_against = a;
         }
-        config.refine_tolerance = self.refine_with_pose_tolerances(config.refine_tolerance)?;
+        let asked = self.asked(&config, overrides.paper)?;
+        config.refine_tolerance = asked.refine_tolerance;
         config.validate(capacity).map_err(|e| {
             let flag = e.param().and_then(|p| overrides.flag_for(p));
             match flag {
@@ -563,7 +567,7 @@ impl LoadedTask {
                 None => self.err(setting_error(&e, &config)),
             }
         })?;
-        Ok(config)
+        Ok((config, asked))
     }
 }
 
@@ -578,6 +582,8 @@ pub struct Overrides {
     pub strategy: Option<Strategy>,
     /// `--refine-against`.
     pub refine_against: Option<RefineAgainst>,
+    /// `--paper`: the goal is the paper's `f ≤ σ_e`, not the pose tolerances.
+    pub paper: bool,
 }
 
 impl Overrides {

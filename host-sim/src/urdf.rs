@@ -122,10 +122,9 @@ impl Chain {
             E::InertiaNotPositiveDefinite(b) => {
                 format!("inertia of {} is not positive definite", self.body_name(*b))
             }
-            E::AxisNotUnit(j) => format!(
-                "axis of {} is not a unit vector (|norm - 1| > {:e})",
-                self.joint_name(*j),
-                reactionless::UNIT_TOLERANCE
+            E::AxisNotUnit { joint, tolerance } => format!(
+                "axis of {} is not a unit vector (|norm - 1| > {tolerance:e})",
+                self.joint_name(*joint),
             ),
             E::LimitsInverted(j) => format!(
                 "{}: lower limit is not below the upper limit",

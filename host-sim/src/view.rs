@@ -20,12 +20,13 @@
 //! centre-of-mass conservation); the truth model's base attitude (~1e-3°) is drawn as a
 //! magnified triad at the base centre of mass, its true value printed beside it.
 
-use crate::artifacts::{Summary, TRUTH_SUBSTEPS, read_bundle, read_output_file};
+use crate::artifacts::{Summary, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
 use crate::output::{read_trajectory_csv, write_atomic};
 use crate::taskfile::LoadedTask;
 use crate::with_dims;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::{Frames, IDENTITY_WXYZ, Sink, Task, TruthModel};
 use serde::Serialize;
 use std::path::Path;

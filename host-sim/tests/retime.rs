@@ -40,6 +40,7 @@ fn retime_writes_a_bundle_that_check_verifies() {
     let (code, _, err) = host_sim(args!(
         "plan",
         &task,
+        "--paper",
         "--out",
         &plan,
         "--retime",

@@ -50,7 +50,8 @@ fn run(args: &[&str], paths: &[&Path]) -> (Option<i32>, String, String) {
 fn check_passes_a_plan_and_fails_a_hand_edited_trajectory() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("plan");
-    let (code, _, err) = run(&["plan", "{}", "--out", "{}"], &[&arm6(), &out]);
+    // 6 joints: the paper's σ_e (the pose goal stops at this truth-made target's floor).
+    let (code, _, err) = run(&["plan", "{}", "--paper", "--out", "{}"], &[&arm6(), &out]);
     assert_eq!(code, Some(0), "{err}");
     let (code, table, err) = run(&["check", "{}"], &[&out]);
     assert_eq!(code, Some(0), "{table}{err}");
@@ -101,7 +102,7 @@ fn check_fails_a_trajectory_that_breaks_a_limit_or_the_disturbance_threshold() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("plan");
     assert_eq!(
-        run(&["plan", "{}", "--out", "{}"], &[&arm6(), &out]).0,
+        run(&["plan", "{}", "--paper", "--out", "{}"], &[&arm6(), &out]).0,
         Some(0)
     );
     // A stricter threshold in the bundled task: the same trajectory must now fail.
@@ -239,7 +240,11 @@ fn plots_on_plan_and_rollout() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("plan");
     assert_eq!(
-        run(&["plan", "{}", "--plots", "--out", "{}"], &[&arm6(), &out]).0,
+        run(
+            &["plan", "{}", "--paper", "--plots", "--out", "{}"],
+            &[&arm6(), &out]
+        )
+        .0,
         Some(0)
     );
     for f in [
@@ -276,6 +281,7 @@ fn plots_on_plan_and_rollout() {
     c.arg("rollout")
         .arg(arm6())
         .arg(format!("--eta={}", eta.join(",")))
+        .arg("--paper")
         .arg("--plots")
         .arg("--out")
         .arg(&out2);
@@ -325,10 +331,11 @@ fn generate_writes_reachable_tasks_deterministically() {
         );
     }
     // The target is reachable: the generating eta (in the comment) reaches it with the
-    // truth model, and the planner finds a plan for it.
+    // truth model, and the planner finds a plan for it against the truth model (a 6-joint
+    // arm reaches a truth-made target only there).
     let out = tmp.path().join("plan");
     let (code, _, err) = run(
-        &["plan", "{}", "--out", "{}"],
+        &["plan", "{}", "--refine-against", "truth", "--out", "{}"],
         &[&a.join("task_001.toml"), &out],
     );
     assert_eq!(code, Some(0), "{err}");
@@ -387,7 +394,14 @@ fn generate_writes_reachable_tasks_deterministically() {
 #[test]
 fn frames_respects_the_budget_and_reports_json() {
     let (code, out, err) = run(
-        &["frames", "{}", "--frame-budget", "2000", "--json"],
+        &[
+            "frames",
+            "{}",
+            "--paper",
+            "--frame-budget",
+            "2000",
+            "--json",
+        ],
         &[&arm6()],
     );
     assert_eq!(code, Some(0), "{err}");

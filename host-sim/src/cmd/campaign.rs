@@ -7,25 +7,25 @@
 //! overall: success rate, and median / p90 / max of iterations, rollouts, f, base
 //! disturbance and wall time) atomically.
 
-use crate::args::{Strategies, parse_refine_against, parse_seeds, parse_strategies};
+use crate::args::{GoalArgs, Strategies, parse_seeds, parse_strategies};
 use crate::artifacts::write_rollout;
 use crate::campaign_report::{Run, summary};
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
+use crate::goal::status_name;
 use crate::output::OutDir;
 use crate::shards::{self, Manifest, Shard, parse_shard};
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use rayon::prelude::*;
-use reactionless::{RefineAgainst, Strategy};
+use reactionless::Strategy;
 use std::path::{Path, PathBuf};
 
 fn one<const N: usize, const K: usize>(
     lt: &LoadedTask,
     overrides: &Overrides,
 ) -> Result<Run, CliError> {
-    let config = lt.planner(HOST_CAPACITY, overrides)?;
-    let seed = config.seed;
+    let (config, asked) = lt.plan_settings(HOST_CAPACITY, overrides)?;
     let task = lt.task::<N, K>()?;
     let done = drive::plan::<N, K>(lt, config, false)?;
     let p = done.plan;
@@ -34,13 +34,9 @@ fn one<const N: usize, const K: usize>(
         task: lt.path.display().to_string(),
         robot: lt.chain.name.clone(),
         strategy: config.strategy.name().to_string(),
-        seed,
-        status: if p.converged() {
-            "converged"
-        } else {
-            "not_converged"
-        }
-        .to_string(),
+        seed: config.seed,
+        status: status_name(p.converged()).to_string(),
+        asked: asked.describe(),
         iterations: p.iterations,
         rollouts: p.rollouts,
         f: p.outcome.f,
@@ -49,13 +45,7 @@ fn one<const N: usize, const K: usize>(
         orientation_error_deg: p.outcome.error.orientation_deg(),
         base_disturbance_deg: truth.base_disturbance_deg,
         truth_f: truth.f,
-        refined: config.refine_tolerance.map(|tol| {
-            p.converged()
-                && match config.refine_against {
-                    RefineAgainst::Planner => p.outcome.f <= tol,
-                    RefineAgainst::Truth => truth.f <= tol,
-                }
-        }),
+        sigma_e_met: p.first_hit.is_some(),
         wall_time_s: done.seconds,
     })
 }
@@ -72,12 +62,8 @@ pub struct Args {
     /// Strategies to compare, comma-separated (default: each task's `[planner] strategy`).
     #[arg(long, value_parser = parse_strategies)]
     strategy: Option<Strategies>,
-    /// Refine until f ≤ this (overrides `[planner] refine_tolerance`).
-    #[arg(long)]
-    refine_tolerance: Option<f64>,
-    /// What refinement drives: planner or truth (overrides `[planner] refine_against`).
-    #[arg(long, value_parser = parse_refine_against)]
-    refine_against: Option<RefineAgainst>,
+    #[command(flatten)]
+    goal: GoalArgs,
     /// Worker threads (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
@@ -100,11 +86,7 @@ impl Args {
             Some(list) => list.0.iter().copied().map(Some).collect(),
             None => vec![None],
         };
-        let base = Overrides {
-            refine_tolerance: self.refine_tolerance,
-            refine_against: self.refine_against,
-            ..Overrides::default()
-        };
+        let base = self.goal.overrides();
         run(
             &self.tasks,
             &self.seeds,

@@ -21,15 +21,17 @@
 //! cannot be read as a host-sim output.
 
 use crate::args::parse_eta;
-use crate::artifacts::{Summary, TRUTH_SUBSTEPS, read_bundle, read_output_file};
+use crate::artifacts::{Summary, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
+use crate::goal::{Asked, Goal};
 use crate::output::read_trajectory_csv;
 use crate::retiming::{self, RetimeSummary};
 use crate::taskfile::LoadedTask;
 use crate::with_dims;
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::integrator::euler_step;
 use reactionless::retime::Setpoint;
-use reactionless::{IDENTITY_WXYZ, RefineAgainst, Sample, Sink, Task, TruthModel};
+use reactionless::{IDENTITY_WXYZ, Sample, Sink, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -133,7 +135,8 @@ fn worst_ratio<const N: usize>(
     worst
 }
 
-/// The checks of a re-timed bundle (written by `retime` or `plan --retime`).
+/// The checks of a re-timed bundle (written by `retime` or `plan --retime`), one
+/// function each.
 fn verify_retimed<const N: usize, const K: usize>(
     lt: &LoadedTask,
     dir: &Path,
@@ -156,20 +159,65 @@ fn verify_retimed<const N: usize, const K: usize>(
         lt.file.retime.grid,
         lt.file.retime.margin,
     )?;
+    let asked = lt.asked(&lt.file.planner, false)?;
     let dt = task.motion().dt();
-    let mut lines = Vec::new();
+    let samples: Vec<Sample<N>> = written
+        .iter()
+        .map(|s| Sample {
+            step: s.step,
+            t: s.t,
+            q: s.q,
+            qd: s.qd,
+        })
+        .collect();
+    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
+    for s in &written {
+        truth.push(&s.q, s.t);
+    }
+    let mut lines = vec![
+        retimed_grid(&written, dt),
+        retimed_duration(&written, summary, &fresh, dt),
+        matches_fresh_retiming(&written, &fresh),
+        retimed_rates(&written, &fresh),
+        retimed_accelerations(&written, &fresh),
+        accelerations_from_rates(&written, &fresh, dt),
+        joint_limits(&task, &samples),
+        rest_line(
+            "qd = 0 at both ends",
+            written.first().map(|s| &s.qd[..]),
+            written.last().map(|s| &s.qd[..]),
+        ),
+        end_q_unchanged(&written, &fresh),
+    ];
+    lines.extend(pose_lines(&asked, &task, &samples, &truth));
+    lines.push(base_disturbance(lt, &truth));
+    Ok(lines)
+}
+
+/// The re-timed grid `t_k = k·dt`, to the bit.
+fn retimed_grid<const N: usize>(written: &[Setpoint<N>], dt: f64) -> Line {
     let bad_t = written
         .iter()
         .enumerate()
         .find(|(k, s)| s.t.to_bits() != (*k as f64 * dt).to_bits());
-    lines.push(line(
+    line(
         "time grid",
         bad_t.map_or("exact".into(), |(k, s)| format!("row {k}: t = {}", s.t)),
         format!("t_k = k*{dt} s"),
         bad_t.is_none(),
-    ));
+    )
+}
+
+/// The written duration: the summary's, at least the minimum time and less than one step
+/// above it.
+fn retimed_duration<const N: usize>(
+    written: &[Setpoint<N>],
+    summary: &RetimeSummary,
+    fresh: &retiming::Retimed<N>,
+    dt: f64,
+) -> Line {
     let last_t = written.last().map_or(f64::NAN, |s| s.t);
-    lines.push(line(
+    line(
         "duration",
         format!("{last_t} s (minimum {:.4} s)", fresh.optimal_duration_s),
         format!(
@@ -179,20 +227,28 @@ fn verify_retimed<const N: usize, const K: usize>(
         last_t == summary.duration_s
             && last_t >= fresh.optimal_duration_s
             && last_t < fresh.optimal_duration_s + dt * (1.0 + 1e-9),
-    ));
+    )
+}
+
+/// Every written setpoint is a fresh re-timing's, bit for bit.
+fn matches_fresh_retiming<const N: usize>(
+    written: &[Setpoint<N>],
+    fresh: &retiming::Retimed<N>,
+) -> Line {
+    let bits = |s: &Setpoint<N>| {
+        std::iter::once(s.t)
+            .chain(s.q)
+            .chain(s.qd)
+            .chain(s.qdd)
+            .map(f64::to_bits)
+            .collect::<Vec<_>>()
+    };
     let same = written.len() == fresh.setpoints.len()
-        && written.iter().zip(&fresh.setpoints).all(|(a, b)| {
-            let bits = |s: &Setpoint<N>| {
-                std::iter::once(s.t)
-                    .chain(s.q)
-                    .chain(s.qd)
-                    .chain(s.qdd)
-                    .map(f64::to_bits)
-                    .collect::<Vec<_>>()
-            };
-            bits(a) == bits(b)
-        });
-    lines.push(line(
+        && written
+            .iter()
+            .zip(&fresh.setpoints)
+            .all(|(a, b)| bits(a) == bits(b));
+    line(
         "matches a fresh re-timing of eta",
         if same {
             "bit for bit".into()
@@ -205,28 +261,45 @@ fn verify_retimed<const N: usize, const K: usize>(
         },
         "every bit".into(),
         same,
-    ));
-    let qd_lim = fresh.limits.qd_max().to_vec();
-    let qdd_lim = fresh.limits.qdd_max().to_vec();
-    let (r, at) = worst_ratio(&written, &qd_lim, |s| s.qd, "qd");
-    lines.push(line(
+    )
+}
+
+/// The written rates against the rate limits.
+fn retimed_rates<const N: usize>(written: &[Setpoint<N>], fresh: &retiming::Retimed<N>) -> Line {
+    let (r, at) = worst_ratio(written, fresh.limits.qd_max(), |s| s.qd, "qd");
+    line(
         "joint rates",
-        format!("{:.4} of the limit ({at})", r),
+        format!("{r:.4} of the limit ({at})"),
         format!("<= {RETIME_TOLERANCE} x rate limit"),
         r <= RETIME_TOLERANCE,
-    ));
-    let (r, at) = worst_ratio(&written, &qdd_lim, |s| s.qdd, "qdd");
-    lines.push(line(
+    )
+}
+
+/// The written accelerations against the acceleration limits.
+fn retimed_accelerations<const N: usize>(
+    written: &[Setpoint<N>],
+    fresh: &retiming::Retimed<N>,
+) -> Line {
+    let (r, at) = worst_ratio(written, fresh.limits.qdd_max(), |s| s.qdd, "qdd");
+    line(
         "joint accelerations (written)",
-        format!("{:.4} of the limit ({at})", r),
+        format!("{r:.4} of the limit ({at})"),
         format!("<= {RETIME_TOLERANCE} x acceleration limit"),
         r <= RETIME_TOLERANCE,
-    ));
-    // Independent of the written q̈: central differences of the written q̇.
+    )
+}
+
+/// Independent of the written q̈: central differences of the written q̇ against the
+/// acceleration limits.
+fn accelerations_from_rates<const N: usize>(
+    written: &[Setpoint<N>],
+    fresh: &retiming::Retimed<N>,
+    dt: f64,
+) -> Line {
     let mut fd = 0.0f64;
     let mut fd_at = String::from("none");
     for (row, w) in written.windows(3).enumerate() {
-        for (j, lim) in qdd_lim.iter().enumerate() {
+        for (j, lim) in fresh.limits.qdd_max().iter().enumerate() {
             let a = (w[2].qd[j] - w[0].qd[j]) / (2.0 * dt);
             let ratio = a.abs() / lim;
             if ratio > fd || ratio.is_nan() {
@@ -235,62 +308,28 @@ fn verify_retimed<const N: usize, const K: usize>(
             }
         }
     }
-    lines.push(line(
+    line(
         "joint accelerations (differences of qd)",
         format!("{fd:.4} of the limit ({fd_at})"),
         format!("<= {RETIME_TOLERANCE} x acceleration limit"),
         fd <= RETIME_TOLERANCE,
-    ));
-    lines.push(joint_limits(
-        &task,
-        &written
-            .iter()
-            .map(|s| Sample {
-                step: s.step,
-                t: s.t,
-                q: s.q,
-                qd: s.qd,
-            })
-            .collect::<Vec<_>>(),
-    ));
-    lines.push(rest_line(
-        "qd = 0 at both ends",
-        written.first().map(|s| &s.qd[..]),
-        written.last().map(|s| &s.qd[..]),
-    ));
+    )
+}
+
+/// The re-timed path ends where the original plan's does.
+fn end_q_unchanged<const N: usize>(written: &[Setpoint<N>], fresh: &retiming::Retimed<N>) -> Line {
     let end_diff = written.last().map_or(f64::INFINITY, |s| {
         s.q.iter()
             .zip(&fresh.q_final)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max)
     });
-    lines.push(line(
+    line(
         "end q vs the original plan's q_S",
         format!("{end_diff:.3e} rad"),
         "<= 1e-9 rad".into(),
         end_diff <= 1e-9,
-    ));
-    let tolerance = lt.file.planner.tolerance;
-    let e = written
-        .last()
-        .map(|s| {
-            task.end_pose(&s.q, IDENTITY_WXYZ)
-                .error_to(task.target())
-                .norm()
-        })
-        .unwrap_or(f64::INFINITY);
-    lines.push(line(
-        "pose error f (planner model)",
-        format!("{e:.3e}"),
-        format!("<= {tolerance:e} ([planner] tolerance)"),
-        e <= tolerance.max(lt.file.planner.refine_tolerance.unwrap_or(0.0)),
-    ));
-    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
-    for s in &written {
-        truth.push(&s.q, s.t);
-    }
-    lines.push(base_disturbance(lt, &truth));
-    Ok(lines)
+    )
 }
 
 fn column_name<const N: usize>(c: usize) -> String {
@@ -324,8 +363,8 @@ fn verify_n<const N: usize, const K: usize>(
     for s in &written {
         truth.sample(s);
     }
-    lines.push(pose_error(lt, &task, &written, &truth));
-    lines.extend(pose_tolerances(lt, &task, &written, &truth)?);
+    let asked = lt.asked(&lt.file.planner, false)?;
+    lines.extend(pose_lines(&asked, &task, &written, &truth));
     lines.push(base_disturbance(lt, &truth));
     Ok(lines)
 }
@@ -498,44 +537,41 @@ fn rest_line(name: &str, first: Option<&[f64]>, last: Option<&[f64]>) -> Line {
     )
 }
 
-/// The end pose of the written `q_S` within the tolerance that was asked for: the
-/// refinement's if the task refines (against the truth model: the truth-model end pose),
-/// else σ_e (planner model).
-fn pose_error<const N: usize, const K: usize>(
-    lt: &LoadedTask,
+/// The end pose of the written `q_S` against what the bundle's task asked for
+/// ([`Asked`]): f within the refinement tolerance (the planner's f, or `truth_f` with the
+/// truth model's end pose when it refined against the truth), else within σ_e; and with the
+/// pose goal, the position and orientation errors within their tolerances, in the same
+/// model.
+fn pose_lines<const N: usize, const K: usize>(
+    asked: &Asked,
     task: &Task<N, K>,
     written: &[Sample<N>],
     truth: &TruthModel<'_, N, K>,
-) -> Line {
-    let planner = &lt.file.planner;
-    // A bad [target] tolerance has its own line (pose_tolerances); here it is left out.
-    let refine = lt
-        .refine_with_pose_tolerances(planner.refine_tolerance)
-        .unwrap_or(planner.refine_tolerance);
-    let (tolerance, key) = match (refine, planner.refine_tolerance) {
-        (Some(t), Some(r)) if t == r => (t, "[planner] refine_tolerance"),
-        (Some(t), _) => (t, "[target] pose tolerances"),
-        (None, _) => (planner.tolerance, "[planner] tolerance"),
-    };
-    let against_truth = refine.is_some() && planner.refine_against == RefineAgainst::Truth;
-    let name = if against_truth {
-        "pose error truth_f (truth model)"
-    } else {
-        "pose error f (planner model)"
-    };
-    let pose = if against_truth {
+) -> Vec<Line> {
+    let model = asked.model();
+    let pose = if asked.against_truth() {
         truth.end_pose()
     } else {
         written
             .last()
             .map(|last| task.end_pose(&last.q, IDENTITY_WXYZ))
     };
-    let Some(pose) = pose else {
-        return line(name, "no samples".into(), String::new(), false);
+    let f_name = if asked.against_truth() {
+        "truth_f"
+    } else {
+        "f"
     };
-    let e = pose.error_to(task.target());
-    line(
-        name,
+    let name = format!("pose error {f_name} ({model})");
+    let Some(e) = pose.map(|pose| pose.error_to(task.target())) else {
+        return vec![line(&name, "no samples".into(), String::new(), false)];
+    };
+    let (tolerance, key) = match (asked.goal, asked.refine_tolerance) {
+        (Goal::Pose, Some(t)) => (t, "the pose goal's f"),
+        (Goal::SigmaE, Some(t)) => (t, "[planner] refine_tolerance"),
+        (_, None) => (asked.sigma_e, "[planner] tolerance, σ_e"),
+    };
+    let mut lines = vec![line(
+        &name,
         format!(
             "{:.3e} ({:.3e} m, {:.3e} deg)",
             e.norm(),
@@ -544,55 +580,26 @@ fn pose_error<const N: usize, const K: usize>(
         ),
         format!("<= {tolerance:e} ({key})"),
         e.norm() <= tolerance,
-    )
-}
-
-/// The end pose's position and orientation errors, each within `[target]
-/// position_tolerance_m` and `orientation_tolerance_deg` when the task sets them (the model
-/// that the pose-error line uses).
-fn pose_tolerances<const N: usize, const K: usize>(
-    lt: &LoadedTask,
-    task: &Task<N, K>,
-    written: &[Sample<N>],
-    truth: &TruthModel<'_, N, K>,
-) -> Result<Vec<Line>, CliError> {
-    let (p, o) = lt.pose_tolerances()?;
-    let planner = &lt.file.planner;
-    let against_truth = lt
-        .refine_with_pose_tolerances(planner.refine_tolerance)?
-        .is_some()
-        && planner.refine_against == RefineAgainst::Truth;
-    let (model, pose) = if against_truth {
-        ("truth model", truth.end_pose())
-    } else {
-        (
-            "planner model",
-            written
-                .last()
-                .map(|last| task.end_pose(&last.q, IDENTITY_WXYZ)),
-        )
-    };
-    let e = pose.map(|pose| pose.error_to(task.target()));
-    let mut lines = Vec::new();
-    if let Some(p) = p {
-        let value = e.map(|e| e.position_m());
+    )];
+    if let Some(p) = asked.position_m {
+        let v = e.position_m();
         lines.push(line(
             &format!("end-effector position error ({model})"),
-            value.map_or("no samples".into(), |v| format!("{v:.3e} m")),
+            format!("{v:.3e} m"),
             format!("<= {p:e} m ([target] position_tolerance_m)"),
-            value.is_some_and(|v| v <= p),
+            v <= p,
         ));
     }
-    if let Some(o) = o {
-        let value = e.map(|e| e.orientation_deg());
+    if let Some(o) = asked.orientation_deg {
+        let v = e.orientation_deg();
         lines.push(line(
             &format!("end-effector orientation error ({model})"),
-            value.map_or("no samples".into(), |v| format!("{v:.3e} deg")),
+            format!("{v:.3e} deg"),
             format!("<= {o:e} deg ([target] orientation_tolerance_deg)"),
-            value.is_some_and(|v| v <= o),
+            v <= o,
         ));
     }
-    Ok(lines)
+    lines
 }
 
 /// The written path through the truth model, below `[check] max_base_disturbance_deg`.

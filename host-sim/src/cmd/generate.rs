@@ -10,12 +10,12 @@
 //! generating η.
 
 use crate::args::{List, RobotArgs, parse_list};
-use crate::artifacts::TRUTH_SUBSTEPS;
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::records::relative_text;
 use crate::urdf::Chain;
 use crate::with_dims;
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::random::{Purpose, Stream};
 use reactionless::{IDENTITY_WXYZ, Motion, Pose, Task, TruthModel};
 use std::fmt::Write as _;

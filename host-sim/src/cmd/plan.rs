@@ -1,10 +1,12 @@
-//! `host-sim plan`: C-PSO (and refinement, if asked) on a task; writes `plan.json`,
-//! `trajectory.csv` and `summary.json` atomically (with `--plots` also the figures and the
-//! 3-D replay page `view.html`).
+//! `host-sim plan`: plans a task (the task's strategy, the multistart by default) to what
+//! it asks for (the pose tolerances by default, see [`crate::goal`]); writes `plan.json`,
+//! `trajectory.csv`, `summary.json` and the task bundle atomically (with `--plots` also the
+//! figures and the 3-D replay page `view.html`).
 //!
 //! The trajectory is the plan's η rolled out again by the same code; it must reproduce the
 //! outcome the planner evaluated bit for bit (checked here, so a mismatch is never written).
-//! Exit code 0 converged, 1 not converged (outputs still written), 2 bad input.
+//! Exit code 0 converged (what was asked is met), 1 not converged (outputs still written),
+//! 2 bad input.
 
 use crate::args::PlanArgs;
 use crate::artifacts::{
@@ -12,20 +14,26 @@ use crate::artifacts::{
 };
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::CliError;
+use crate::goal::{Asked, number, status_name};
 use crate::output::OutDir;
 use crate::retiming;
 use crate::taskfile::{self, LoadedTask};
 use crate::view;
 use crate::with_dims;
-use reactionless::{PlannerConfig, RefineAgainst, RefineStop};
+use reactionless::{Plan, Stop};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// `plan.json`.
 #[derive(Serialize, schemars::JsonSchema)]
 pub struct PlanJson {
-    /// `"converged"` or `"not_converged"`.
+    /// `"converged"` (what was asked is met) or `"not_converged"`.
     pub status: &'static str,
+    /// Why planning stopped: `"converged"`, `"exhausted"` (a budget was spent first) or
+    /// `"stalled"` (the refinement could get no closer).
+    pub stop: &'static str,
+    /// What was asked, in words (see `[target] goal`).
+    pub asked: String,
     /// The search strategy (`"multistart"` or `"cpso"`).
     pub strategy: &'static str,
     /// η as `a1,b1,…,aK,bK`.
@@ -87,19 +95,9 @@ pub struct RefineJson {
     pub f_history: Vec<f64>,
 }
 
-/// What `plan` was asked to do.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct PlanOptions {
-    /// Seed override.
-    pub seed: Option<u64>,
-    /// Refinement tolerance override.
-    pub refine: Option<f64>,
-    /// Write figures.
-    pub plots: bool,
-}
-
-/// Plan a task with C-PSO (and refinement): writes DIR/plan.json, DIR/trajectory.csv,
-/// DIR/summary.json. Exit code 0 converged, 1 not converged, 2 bad input.
+/// Plan a task to the pose it asks for (multistart by default, or the paper's C-PSO):
+/// writes DIR/plan.json, DIR/trajectory.csv, DIR/summary.json and the task bundle. Exit code
+/// 0 converged (what was asked is met), 1 not converged, 2 bad input.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Task file (TOML).
@@ -130,16 +128,8 @@ impl Args {
     }
 }
 
-fn stop_name(s: RefineStop) -> &'static str {
-    match s {
-        RefineStop::Reached => "reached",
-        RefineStop::Budget => "budget",
-        RefineStop::Stalled => "stalled",
-    }
-}
-
 fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result<(), CliError> {
-    let config = lt.planner(HOST_CAPACITY, &args.planning.overrides())?;
+    let (config, asked) = lt.plan_settings(HOST_CAPACITY, &args.planning.overrides())?;
     let task = lt.task::<N, K>()?;
     let done = drive::plan::<N, K>(lt, config, true)?;
     let p = done.plan;
@@ -153,7 +143,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     }
     let truth = &run.truth;
     dir.write_json("summary.json", &summary(&task, &p.eta, &run.outcome, truth))?;
-    write_bundle(lt, &dir, Some(config.seed), config.refine_tolerance)?;
+    let bundled = write_bundle(lt, &dir, Some((&config, &asked)))?;
     if let Some(trace) = run.trace.take() {
         let plan = PlanFigures {
             history: done.best_per_rollout.clone(),
@@ -171,11 +161,9 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
         )?;
     }
     let json = PlanJson {
-        status: if converged {
-            "converged"
-        } else {
-            "not_converged"
-        },
+        status: status_name(converged),
+        stop: p.stop.name(),
+        asked: asked.describe(),
         strategy: p.strategy.name(),
         eta: p.eta.iter().flatten().copied().collect(),
         f: p.outcome.f,
@@ -195,7 +183,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
         search_f: p.search_f,
         refine: p.refine.map(|r| RefineJson {
             tolerance: config.refine_tolerance.unwrap_or(f64::NAN),
-            stop: stop_name(r.stop),
+            stop: r.stop.name(),
             iterations: r.iterations,
             rollouts: r.rollouts,
             f_start: r.f_start,
@@ -214,8 +202,10 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
             ))
         })?;
         let sub = OutDir::create(&dir.path("retimed"))?;
+        // From the plan's bundle, as `host-sim retime DIR` reads it: the re-timed bundle
+        // carries the settings the plan used.
         let s = retiming::write(
-            lt,
+            &bundled,
             &task,
             &p.eta,
             &qdd,
@@ -239,23 +229,56 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
             path.display()
         );
     }
-    eprintln!("{}", human_summary(lt, &config, &json, &run, &path));
+    eprintln!("{}", human_summary(lt, &asked, &p, &json, &run, &path));
     if converged {
         Ok(())
     } else {
         Err(CliError::failed(format!(
-            "not converged after {} iterations (best f = {:.3e})",
-            p.iterations, p.outcome.f
+            "not converged: {} ({} rollouts)",
+            missed(&asked, &p, N),
+            p.rollouts
         )))
     }
 }
 
-/// The plan as an engineer reads it: status against what was asked, the errors in their
-/// units, the base disturbance and the largest rate against their limits, the cost, and
-/// where the files are.
-fn human_summary<const N: usize>(
+/// Why a plan that is not converged misses what was asked, in one sentence: how it
+/// stopped, where it ended, and for a 6-joint arm that stops at the planner model's floor
+/// on a pose goal, that floor.
+fn missed<const N: usize, const K: usize>(asked: &Asked, p: &Plan<N, K>, n: usize) -> String {
+    let how = match p.stop {
+        Stop::Converged => "converged",
+        Stop::Exhausted => "the budget was spent first",
+        Stop::Stalled => "it stalled: no step got closer",
+    };
+    let mut s = format!(
+        "{how}; reached f = {} ({} m, {} deg), asked {}",
+        number(p.outcome.f),
+        number(p.outcome.error.position_m()),
+        number(p.outcome.error.orientation_deg()),
+        asked.describe()
+    );
+    if p.first_hit.is_some() {
+        s.push_str(&format!("; σ_e = {} was met", number(asked.sigma_e)));
+    }
+    // 6 joints: 2K − 1 = 5 unknowns (η's direction) for the 6 pose equations, so a target
+    // made by the truth model can lie off the planner model's reachable set.
+    if n == 6 && p.first_hit.is_some() && !asked.against_truth() && asked.refine_tolerance.is_some()
+    {
+        s.push_str(&format!(
+            ". A 6-joint arm has 5 unknowns for 6 pose equations: f = {} is this target's floor on the planner model; refine against the truth model (--refine-against truth) or loosen the pose tolerances",
+            number(p.outcome.f)
+        ));
+    }
+    s
+}
+
+/// The plan as an engineer reads it: reached against asked, the errors in their units, the
+/// base disturbance and the largest rate against their limits, the cost, and where the
+/// files are.
+fn human_summary<const N: usize, const K: usize>(
     lt: &LoadedTask,
-    config: &PlannerConfig,
+    asked: &Asked,
+    p: &Plan<N, K>,
     json: &PlanJson,
     run: &RolloutRun<N>,
     dir: &Path,
@@ -275,47 +298,36 @@ fn human_summary<const N: usize>(
         .joints
         .get(rate_joint)
         .map_or(f64::NAN, |j| j.velocity);
-    let asked = match (config.refine_tolerance, config.refine_against) {
-        (Some(t), RefineAgainst::Planner) => format!("f ≤ {t:e} (refined)"),
-        (Some(t), RefineAgainst::Truth) => {
-            format!("truth_f ≤ {t:e} (refined against the truth model)")
-        }
-        (None, _) => format!("f ≤ σ_e = {}", config.tolerance),
-    };
-    let met = match (&json.refine, config.refine_tolerance) {
-        (Some(r), Some(_)) => r.stop == "reached",
-        (None, Some(_)) => false,
-        (_, None) => json.status == "converged",
-    };
-    let verdict = match (json.status, met) {
-        ("converged", true) => "converged",
-        ("converged", false) => "converged to σ_e; the refinement tolerance was NOT met",
-        _ => "NOT converged (the budget is spent)",
+    let verdict = if p.converged() {
+        format!("converged; asked {}", asked.describe())
+    } else {
+        format!("NOT converged: {}", missed(asked, p, N))
     };
     let pass = |ok: bool| if ok { "ok" } else { "EXCEEDED" };
     format!(
-        "plan: {verdict}; asked {asked}\n\
+        "plan: {verdict}\n\
          \x20 strategy             {} (seed {})\n\
-         \x20 pose error f         {:.3e} (planner model), truth_f {:.3e} (base drift included)\n\
-         \x20 position error       {:.3e} m\n\
-         \x20 orientation error    {:.3e} deg\n\
-         \x20 base disturbance     {disturbance:.3e} deg (requirement ≤ {limit_deg} deg: {})\n\
-         \x20 largest joint rate   {:.3} deg/s on {} (its limit {:.3} deg/s: {:.0}%)\n\
+         \x20 pose error f         {} (planner model), truth_f {} (base drift included)\n\
+         \x20 position error       {} m\n\
+         \x20 orientation error    {} deg\n\
+         \x20 base disturbance     {} deg (requirement ≤ {limit_deg} deg: {})\n\
+         \x20 largest joint rate   {} deg/s on {} (its limit {} deg/s: {:.0}%)\n\
          \x20 rollouts             {} in {:.2} s\n\
          \x20 files                {}/ (plan.json, summary.json, trajectory.csv, task.toml, robot.urdf)",
         json.strategy,
         json.seed,
-        json.f,
-        json.truth_f,
-        json.position_error_m,
-        json.orientation_error_deg,
+        number(json.f),
+        number(json.truth_f),
+        number(json.position_error_m),
+        number(json.orientation_error_deg),
+        number(disturbance),
         pass(disturbance <= limit_deg),
-        rate.to_degrees(),
+        number(rate.to_degrees()),
         lt.chain
             .joint_names
             .get(rate_joint)
             .map_or("?", String::as_str),
-        rate_limit.to_degrees(),
+        number(rate_limit.to_degrees()),
         100.0 * ratio,
         json.rollouts,
         json.wall_time_s,

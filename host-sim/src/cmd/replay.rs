@@ -85,20 +85,23 @@ pub fn replay(path: &Path) -> Result<(), CliError> {
         })?,
     };
     let refine_against = match rec.refine_against.as_deref() {
-        None | Some("planner") => RefineAgainst::Planner,
-        Some("truth") => RefineAgainst::Truth,
-        Some(other) => {
-            return Err(CliError::input(format!(
-                "{}: unknown refine_against {other:?}",
+        None => RefineAgainst::Planner,
+        Some(name) => RefineAgainst::from_name(name).ok_or_else(|| {
+            CliError::input(format!(
+                "{}: unknown refine_against {name:?}",
                 path.display()
-            )));
-        }
+            ))
+        })?,
     };
+    // The record holds the refinement tolerance the planner was given (resolved from the
+    // goal when it was made): replayed as is, with σ_e as the success test, it gives the
+    // planner the same settings whatever the goal's defaults are today.
     let overrides = Overrides {
         seed: Some(rec.seed),
         refine_tolerance: rec.refine_tolerance,
         strategy: Some(strategy),
         refine_against: Some(refine_against),
+        paper: true,
     };
     let now = with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
     let build = Build::current();

@@ -4,11 +4,12 @@
 //! bundle into the output directory, atomically; with `--plots` the figures and the 3-D
 //! replay page `view.html` too.
 
-use crate::args::{List, eta_error, parse_eta, parse_list};
+use crate::args::{GoalArgs, List, eta_error, parse_eta, parse_list};
 use crate::artifacts::{summary, write_bundle, write_figures, write_rollout};
+use crate::drive::HOST_CAPACITY;
 use crate::error::CliError;
 use crate::output::OutDir;
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::view;
 use crate::with_dims;
 use reactionless::Rollout;
@@ -28,6 +29,9 @@ pub struct Args {
     /// Also write figures (PNG and SVG) and the 3-D replay page view.html.
     #[arg(long)]
     plots: bool,
+    /// What `check` holds the rollout to (written into the bundle's task.toml).
+    #[command(flatten)]
+    goal: GoalArgs,
 }
 
 impl Args {
@@ -40,7 +44,8 @@ impl Args {
             &lt,
             &self.eta.0,
             &self.out,
-            self.plots
+            self.plots,
+            &self.goal.overrides()
         )
     }
 }
@@ -50,7 +55,9 @@ fn run_n<const N: usize, const K: usize>(
     eta: &[f64],
     out: &Path,
     plots: bool,
+    overrides: &Overrides,
 ) -> Result<(), CliError> {
+    let (config, asked) = lt.plan_settings(HOST_CAPACITY, overrides)?;
     let task = lt.task::<N, K>()?;
     let eta = parse_eta::<K>(eta)?;
     // Validate η before anything is created on disk.
@@ -61,7 +68,7 @@ fn run_n<const N: usize, const K: usize>(
         "summary.json",
         &summary(&task, &eta, &run.outcome, &run.truth),
     )?;
-    write_bundle(lt, &dir, None, None)?;
+    let _ = write_bundle(lt, &dir, Some((&config, &asked)))?;
     if let Some(trace) = run.trace {
         write_figures(lt, &task, trace, None, &dir)?;
         dir.write(

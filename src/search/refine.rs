@@ -45,6 +45,18 @@ pub enum RefineStop {
     Stalled,
 }
 
+impl RefineStop {
+    /// `"reached"`, `"budget"` or `"stalled"`.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            RefineStop::Reached => "reached",
+            RefineStop::Budget => "budget",
+            RefineStop::Stalled => "stalled",
+        }
+    }
+}
+
 /// What refinement did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -355,11 +367,11 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
                 lambda: self.lambda,
             });
         }
-        if more {
-            Next::Continue
-        } else {
-            // Refinement starts from a converged point and accepts only improvements.
-            Next::Done(Stop::Converged)
+        match (more, self.stop) {
+            (true, _) => Next::Continue,
+            (false, Some(RefineStop::Reached)) => Next::Done(Stop::Converged),
+            (false, Some(RefineStop::Stalled)) => Next::Done(Stop::Stalled),
+            (false, _) => Next::Done(Stop::Exhausted),
         }
     }
 

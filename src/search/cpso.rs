@@ -15,8 +15,10 @@
 
 use crate::config::PlannerConfig;
 use crate::error::Error;
+use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
+use crate::strategy::{Method, SearchReport};
 use crate::swarm::Swarm;
 
 /// C-PSO over a swarm of capacity `P`.
@@ -68,6 +70,32 @@ impl<const K: usize, const P: usize> Cpso<K, P> {
     #[must_use]
     pub fn iterations(&self) -> u32 {
         self.iteration
+    }
+}
+
+impl<const N: usize, const K: usize, const P: usize> Method<N, K> for Cpso<K, P> {
+    /// [`Cpso::reset`]: the swarm at its initial positions.
+    fn start(
+        &mut self,
+        config: &PlannerConfig,
+        _: &Robot<N>,
+        stream: &mut Stream,
+    ) -> Result<(), Error> {
+        self.reset(config, stream)
+    }
+
+    /// σ_e.
+    fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    /// Generations after the initial one, and the stagnation alarms.
+    fn report(&self) -> SearchReport {
+        SearchReport {
+            iterations: self.iteration,
+            stagnation_events: self.swarm.stagnation_events(),
+            restarts: 0,
+        }
     }
 }
 

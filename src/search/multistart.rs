@@ -54,12 +54,26 @@
 //! The first rollout with `Φ = 0` and `f ≤ σ_e` is recorded ([`MultistartReport::first_hit`])
 //! so one run can be measured against both σ_e and a refinement tolerance.
 
+use crate::config::{PlannerConfig, RefineAgainst};
 use crate::error::{Error, Param};
 use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
 use crate::refine::solve_spd_in_place;
 use crate::rollout::Outcome;
+use crate::strategy::{Method, SearchReport};
+
+/// Below this `f` (m and rad, as σ_e) a start that stalls is handed to the refinement
+/// against the truth model instead of being restarted, when the planner refines against
+/// the truth model: the planner model's own floor on a target the truth model made
+/// (measured `1e-5…5e-5`), not a local minimum (measured `3e-3…2e-2`). See
+/// [`LmConfig::floor`].
+pub const TRUTH_HANDOVER_FLOOR: f64 = 1e-3;
+
+/// Starts stalled below σ_e after which a search with fewer unknowns than pose equations
+/// (6 joints) refining against the planner model stops at its floor
+/// ([`LmConfig::floor_starts`]).
+pub const FLOOR_STARTS: u32 = 3;
 
 /// Largest `2K` (K ≤ 9 for N ≤ 12).
 pub const MAX_DIM: usize = 18;
@@ -116,6 +130,13 @@ pub struct LmConfig {
     /// of truth-made targets are `1e-5…5e-5` (`examples/floor.rs`), the local minima that
     /// the truth refinement cannot leave `3e-3…2e-2`.
     pub floor: f64,
+    /// Stop (instead of restarting) once this many starts have stalled at `‖r‖ ≤ σ_e`
+    /// without reaching the tolerance (0: never). With fewer unknowns than pose equations
+    /// (`2K − 1 < 6`: 6 joints) a target that the planner model does not reach exactly
+    /// (one the truth model made) has a floor every start stalls at; more starts cannot
+    /// get below it, so the search ends [`Stop::Stalled`] at its best instead of spending
+    /// the whole budget.
+    pub floor_starts: u32,
 }
 
 impl LmConfig {
@@ -138,6 +159,7 @@ impl LmConfig {
             shrink: 0.5,
             fd_step: 1e-7,
             floor: 0.0,
+            floor_starts: 0,
         }
     }
 
@@ -189,6 +211,10 @@ pub struct MultistartReport {
     pub converged: bool,
     /// Stopped at a start's floor below σ_e ([`LmConfig::floor`]).
     pub floor: bool,
+    /// Starts that stalled at `‖r‖ ≤ σ_e` without reaching the tolerance.
+    pub floored: u32,
+    /// Stopped after [`LmConfig::floor_starts`] such starts.
+    pub stalled: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -238,6 +264,8 @@ pub struct Multistart<const N: usize, const K: usize> {
     ref_merit: f64,
     ref_rollout: u32,
     report: MultistartReport,
+    /// A start is running (its end is counted in [`MultistartReport::floored`]).
+    live: bool,
     best_eta: [[f64; 2]; K],
     best: Option<Outcome<N>>,
     /// Scratch of each step's solve (not state: rebuilt every time): `J_t = J U`.
@@ -287,7 +315,10 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             first_hit: None,
             converged: false,
             floor: false,
+            floored: 0,
+            stalled: false,
         },
+        live: false,
         best_eta: [[0.0; 2]; K],
         best: None,
         jt: [[0.0; MAX_DIM]; MAX_ROWS],
@@ -377,7 +408,10 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             first_hit: None,
             converged: false,
             floor: false,
+            floored: 0,
+            stalled: false,
         };
+        self.live = false;
         self.best_eta = [[0.0; 2]; K];
         self.best = None;
         self.draw_batch(stream);
@@ -563,6 +597,19 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             self.phase = Phase::Done;
             return;
         }
+        if self.live {
+            // The start just dropped: did it stall below σ_e?
+            self.live = false;
+            let sigma = self.config.sigma_e;
+            if self.merit <= sigma * sigma {
+                self.report.floored += 1;
+                if self.config.floor_starts > 0 && self.report.floored >= self.config.floor_starts {
+                    self.report.stalled = true;
+                    self.phase = Phase::Done;
+                    return;
+                }
+            }
+        }
         let mut pick: Option<usize> = None;
         if self.pool_starts < self.config.starts_per_screen {
             let mut best = f64::INFINITY;
@@ -588,6 +635,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         }
         self.pool_starts += 1;
         self.report.starts += 1;
+        self.live = true;
         self.x = self.pool.get(i).copied().unwrap_or([0.0; MAX_DIM]);
         self.r = self.pool_r.get(i).copied().unwrap_or([0.0; MAX_ROWS]);
         self.merit = self.pool_merit.get(i).copied().unwrap_or(f64::INFINITY);
@@ -845,6 +893,66 @@ fn norm2(r: &Res) -> f64 {
     r.iter().fold(0.0, |s, v| s + v * v)
 }
 
+impl<const N: usize, const K: usize> Multistart<N, K> {
+    /// The multistart's settings for the planner's `config`: [`LmConfig::reference`] with
+    /// the total budget, σ_e, and the truth hand-over floor when refining against the
+    /// truth model; and the f it searches to: the refinement tolerance when there is one
+    /// (it refines as it searches; against the truth it stops at its planner-model floor
+    /// and the truth refinement takes over), else σ_e.
+    #[must_use]
+    pub fn settings(config: &PlannerConfig) -> (LmConfig, f64) {
+        let lm = LmConfig {
+            max_rollouts: config.max_rollouts,
+            sigma_e: config.tolerance,
+            floor: match (config.refine_tolerance, config.refine_against) {
+                (Some(_), RefineAgainst::Truth) => TRUTH_HANDOVER_FLOOR,
+                _ => 0.0,
+            },
+            floor_starts: match (config.refine_tolerance, config.refine_against) {
+                (Some(_), RefineAgainst::Planner) if 2 * K - 1 < 6 => FLOOR_STARTS,
+                _ => 0,
+            },
+            ..LmConfig::reference()
+        };
+        let tolerance = match config.refine_tolerance {
+            Some(r) => r.min(config.tolerance),
+            None => config.tolerance,
+        };
+        (lm, tolerance)
+    }
+}
+
+impl<const N: usize, const K: usize> Method<N, K> for Multistart<N, K> {
+    /// [`Multistart::reset`] with [`Multistart::settings`]: draws the first screening
+    /// batch.
+    fn start(
+        &mut self,
+        config: &PlannerConfig,
+        robot: &Robot<N>,
+        stream: &mut Stream,
+    ) -> Result<(), Error> {
+        let (lm, tolerance) = Self::settings(config);
+        self.reset(&lm, robot, tolerance, stream)
+    }
+
+    fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    fn refines_as_it_searches(&self) -> bool {
+        true
+    }
+
+    /// Accepted LM steps, and the starts after the first.
+    fn report(&self) -> SearchReport {
+        SearchReport {
+            iterations: self.report.accepted,
+            stagnation_events: 0,
+            restarts: self.report.starts.saturating_sub(1),
+        }
+    }
+}
+
 impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
     fn candidate(&self) -> Candidate<K> {
         let (eta, cap) = self.ask();
@@ -863,6 +971,8 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
             Next::Continue
         } else if self.report.converged || self.report.floor {
             Next::Done(Stop::Converged)
+        } else if self.report.stalled {
+            Next::Done(Stop::Stalled)
         } else {
             Next::Done(Stop::Exhausted)
         }

@@ -28,6 +28,11 @@ use crate::task::Task;
 /// Smallest number of midpoint sub-steps per segment the specification accepts.
 pub const MIN_SUBSTEPS: u32 = 10;
 
+/// Midpoint sub-steps per segment wherever this project runs the truth model: the
+/// planner's truth-evaluated candidates, `host-sim` (`check`, summaries, dispersions) and
+/// the flight image.
+pub const TRUTH_SUBSTEPS: u32 = MIN_SUBSTEPS;
+
 /// The truth model's state along a joint path.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TruthState<const N: usize> {

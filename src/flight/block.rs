@@ -28,7 +28,7 @@
 //! | 4 + 3·8 | stagnation window (u32); min_relative_improvement, eps1, eps2 |
 //! | 4 + 8 + 4 | refine flag (u32, 0 or 1), refine tolerance, refine max rollouts (u32) |
 //! | 4 | frame budget (u32, integration steps per call of `step`) |
-//! | 4 + 4 + 4 | strategy (u32: 0 multistart, 1 cpso), max_rollouts (u32), refine_against (u32: 0 planner, 1 truth) |
+//! | 4 + 4 + 4 | strategy (u32, [`Strategy::code`]: 0 multistart, 1 cpso), max_rollouts (u32), refine_against (u32, [`RefineAgainst::code`]: 0 planner, 1 truth) |
 //! | 4 + 8 + N·8 | only with magic `RLTASK03`: re-timing grid (u32), margin, `q̈max` per joint (rad/s²) |
 //! | 4 | CRC-32 of everything above |
 //!
@@ -303,15 +303,9 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     w.f64(tol);
     w.u32(p.refine_max_rollouts);
     w.u32(p.frame_budget);
-    w.u32(match p.strategy {
-        Strategy::Multistart => 0,
-        Strategy::Cpso => 1,
-    });
+    w.u32(p.strategy.code());
     w.u32(p.max_rollouts);
-    w.u32(match p.refine_against {
-        RefineAgainst::Planner => 0,
-        RefineAgainst::Truth => 1,
-    });
+    w.u32(p.refine_against.code());
     if let Some(r) = &block.retime {
         w.u32(r.grid);
         w.f64(r.margin);
@@ -407,17 +401,10 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let refine_tolerance = r.f64()?;
     let refine_rollouts = r.u32()?;
     let frame_budget = r.u32()?;
-    let strategy = match r.u32()? {
-        0 => Strategy::Multistart,
-        1 => Strategy::Cpso,
-        _ => return Err(Error::Block(BlockFault::Field)),
-    };
+    let strategy = Strategy::from_code(r.u32()?).ok_or(Error::Block(BlockFault::Field))?;
     let max_rollouts = r.u32()?;
-    let refine_against = match r.u32()? {
-        0 => RefineAgainst::Planner,
-        1 => RefineAgainst::Truth,
-        _ => return Err(Error::Block(BlockFault::Field)),
-    };
+    let refine_against =
+        RefineAgainst::from_code(r.u32()?).ok_or(Error::Block(BlockFault::Field))?;
     let retime = if with_retime {
         let grid = r.u32()?;
         let margin = r.f64()?;

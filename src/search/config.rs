@@ -12,6 +12,7 @@
 //! documentation, nothing else.
 
 use crate::error::{Error, Param};
+pub use crate::strategy::Strategy;
 
 /// Longest stagnation window (generations).
 pub const MAX_WINDOW: usize = 64;
@@ -67,44 +68,6 @@ pub struct PlannerConfig {
     pub stagnation: StagnationConfig,
 }
 
-/// How the planner searches η (`[planner] strategy`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Deserialize, serde::Serialize),
-    serde(rename_all = "lowercase")
-)]
-pub enum Strategy {
-    /// Multistart Levenberg–Marquardt on the unit sphere of η ([`crate::multistart`]): the
-    /// default.
-    Multistart,
-    /// The paper's constrained PSO (spec §7, [`crate::cpso`]), then the optional
-    /// refinement ([`crate::refine`]).
-    Cpso,
-}
-
-impl Strategy {
-    /// The task-file name (`"multistart"`, `"cpso"`).
-    #[must_use]
-    pub const fn name(&self) -> &'static str {
-        match self {
-            Strategy::Multistart => "multistart",
-            Strategy::Cpso => "cpso",
-        }
-    }
-
-    /// The strategy of a task-file name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "multistart" => Some(Strategy::Multistart),
-            "cpso" => Some(Strategy::Cpso),
-            _ => None,
-        }
-    }
-}
-
 /// Which end pose refinement drives (`[planner] refine_against`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -121,13 +84,39 @@ pub enum RefineAgainst {
 }
 
 impl RefineAgainst {
+    /// Both targets, in wire-code order.
+    pub const ALL: &'static [RefineAgainst] = &[RefineAgainst::Planner, RefineAgainst::Truth];
+
+    /// The one table: task-file name and wire code (task block).
+    const fn entry(self) -> (&'static str, u32) {
+        match self {
+            RefineAgainst::Planner => ("planner", 0),
+            RefineAgainst::Truth => ("truth", 1),
+        }
+    }
+
     /// The task-file name (`"planner"`, `"truth"`).
     #[must_use]
-    pub const fn name(&self) -> &'static str {
-        match self {
-            RefineAgainst::Planner => "planner",
-            RefineAgainst::Truth => "truth",
-        }
+    pub const fn name(self) -> &'static str {
+        self.entry().0
+    }
+
+    /// The wire code (u32) of the task block.
+    #[must_use]
+    pub const fn code(self) -> u32 {
+        self.entry().1
+    }
+
+    /// The target of a task-file name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().copied().find(|s| s.name() == name)
+    }
+
+    /// The target of a wire code.
+    #[must_use]
+    pub fn from_code(code: u32) -> Option<Self> {
+        Self::ALL.iter().copied().find(|s| s.code() == code)
     }
 }
 

@@ -171,7 +171,9 @@ pub fn validate_pose(p: &Pose) -> Result<Pose, Error> {
     let norm = libm::sqrt(w * w + x * x + y * y + z * z);
     // Components are finite here, so `norm` is finite or +∞ (never NaN).
     if libm::fabs(norm - 1.0) > UNIT_TOLERANCE {
-        return Err(Error::QuaternionNotUnit);
+        return Err(Error::QuaternionNotUnit {
+            tolerance: UNIT_TOLERANCE,
+        });
     }
     Ok(Pose {
         position: p.position,

@@ -235,7 +235,7 @@ impl<'g, const N: usize> PathBuilder<'g, N> {
     /// for a length that is not finite and positive.
     pub fn new(grid: &'g mut [GridPoint<N>], m: u32, length: f64) -> Result<Self, Error> {
         if m < MIN_GRID {
-            return Err(Error::GridTooSmall);
+            return Err(Error::GridTooSmall { min: MIN_GRID });
         }
         if (m as usize) > grid.len() {
             return Err(Error::CapacityExceeded {
@@ -732,7 +732,9 @@ impl Stream {
         check_positive(dt_s, Param::TimeStep)?;
         let ratio = profile.duration / dt_s;
         if ratio.is_nan() || ratio >= f64::from(MAX_STEPS) {
-            return Err(Error::TooManySteps);
+            return Err(Error::TooManySteps {
+                max: crate::MAX_STEPS,
+            });
         }
         // Round up to a whole step; a ratio within 1e-9 of an integer is that integer.
         let near = libm::round(ratio);
@@ -893,7 +895,7 @@ mod tests {
         );
         assert_eq!(
             PathBuilder::new(&mut grid, 2, 1.0).err(),
-            Some(Error::GridTooSmall)
+            Some(Error::GridTooSmall { min: MIN_GRID })
         );
         assert_eq!(
             PathBuilder::new(&mut grid, 4, 0.0).err(),

@@ -45,26 +45,16 @@
 
 use crate::batch::{Batch, Ended, Engine, Portable};
 use crate::config::{PlannerConfig, RefineAgainst, Strategy};
-use crate::cpso::Cpso;
 use crate::error::Error;
-use crate::multistart::{LmConfig, Multistart};
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
 use crate::refine::{RefineReport, RefineStop, Refiner};
 use crate::rollout::{Outcome, Progress, Rollout, Sample};
+use crate::strategy::{Method, Search};
 use crate::swarm::{Cost, Swarm};
 use crate::task::Task;
-use crate::truth::{MIN_SUBSTEPS, TruthState};
+use crate::truth::{TRUTH_SUBSTEPS, TruthState};
 use core::marker::PhantomData;
-
-/// Truth-model sub-steps per integration step when a candidate asks for the truth model.
-pub const TRUTH_SUBSTEPS: u32 = MIN_SUBSTEPS;
-
-/// Below this `f` (m and rad, as σ_e) a multistart start that stalls is handed to the
-/// refinement against the truth model instead of being restarted: the planner model's own
-/// floor on a target the truth model made (measured `1e-5…5e-5`), not a local minimum
-/// (measured `3e-3…2e-2`). See [`crate::multistart::LmConfig::floor`].
-pub const TRUTH_HANDOVER_FLOOR: f64 = 1e-3;
 
 /// Which stage the planner is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -99,10 +89,11 @@ pub struct Running {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Plan<const N: usize, const K: usize> {
-    /// Why planning stopped: [`Stop::Converged`] (an evaluated rollout of `eta` is feasible
-    /// with `f ≤ σ_e`, and within the refinement tolerance if refinement reached it) or
-    /// [`Stop::Exhausted`] (the budget is spent: the best η found, feasible first, else the
-    /// least violating).
+    /// Why planning stopped: [`Stop::Converged`] (the evaluated rollout of `eta` meets
+    /// what was asked: Φ = 0, `f ≤ σ_e` and, when a refinement tolerance is set, f, or
+    /// `truth_f` against the truth model, within it), [`Stop::Exhausted`] (a budget was
+    /// spent first) or [`Stop::Stalled`] (the refinement could get no closer). When not
+    /// converged, `eta` is the best found: feasible first, else the least violating.
     pub stop: Stop,
     /// The strategy that searched.
     pub strategy: Strategy,
@@ -132,7 +123,7 @@ pub struct Plan<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Plan<N, K> {
-    /// `true` if the plan met its tolerance ([`Stop::Converged`]).
+    /// `true` if the plan meets what was asked ([`Stop::Converged`]).
     #[must_use]
     pub fn converged(&self) -> bool {
         self.stop == Stop::Converged
@@ -268,8 +259,8 @@ pub struct Planner<
     task: Task<N, K>,
     config: PlannerConfig,
     stream: Stream,
-    cpso: Cpso<K, P>,
-    multistart: Multistart<N, K>,
+    /// The chosen strategy's search (only its state).
+    search: Search<N, K, P>,
     phase: Phase<N, K>,
     flight: Option<Flight<N, K>>,
     /// η of the rollout in flight (or last evaluated).
@@ -303,8 +294,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         task: Task::IDLE,
         config: PlannerConfig::reference(0),
         stream: Stream::IDLE,
-        cpso: Cpso::IDLE,
-        multistart: Multistart::IDLE,
+        search: Search::IDLE,
         phase: Phase::Failed(Error::NotInitialized),
         flight: None,
         eta: [[0.0; 2]; K],
@@ -342,16 +332,6 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         &mut self.task
     }
 
-    /// The tolerance the multistart searches to: the refinement tolerance when there is
-    /// one (it refines as it searches; against the truth it stops at its planner-model
-    /// floor and the truth refinement takes over), else σ_e.
-    fn search_tolerance(config: &PlannerConfig) -> f64 {
-        match config.refine_tolerance {
-            Some(r) => r.min(config.tolerance),
-            None => config.tolerance,
-        }
-    }
-
     /// Starts planning the planner's current task from scratch with `config`, in place.
     ///
     /// # Errors
@@ -374,26 +354,9 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         }
         self.config = config;
         self.stream = Stream::new(config.seed);
-        let started = match config.strategy {
-            Strategy::Cpso => self.cpso.reset(&config, &mut self.stream),
-            Strategy::Multistart => {
-                let lm = LmConfig {
-                    max_rollouts: config.max_rollouts,
-                    sigma_e: config.tolerance,
-                    floor: match (config.refine_tolerance, config.refine_against) {
-                        (Some(_), RefineAgainst::Truth) => TRUTH_HANDOVER_FLOOR,
-                        _ => 0.0,
-                    },
-                    ..LmConfig::reference()
-                };
-                self.multistart.reset(
-                    &lm,
-                    self.task.robot(),
-                    Self::search_tolerance(&config),
-                    &mut self.stream,
-                )
-            }
-        };
+        let started = self
+            .search
+            .start(&config, self.task.robot(), &mut self.stream);
         if let Err(e) = started {
             self.phase = Phase::Failed(e);
             return Err(e);
@@ -454,10 +417,16 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         &self.config
     }
 
-    /// The swarm (for inspection; C-PSO only).
+    /// The swarm, if the planner runs C-PSO (for inspection).
     #[must_use]
-    pub fn swarm(&self) -> &Swarm<K, P> {
-        self.cpso.swarm()
+    pub fn swarm(&self) -> Option<&Swarm<K, P>> {
+        self.search.swarm()
+    }
+
+    /// The running search (for inspection).
+    #[must_use]
+    pub fn search(&self) -> &Search<N, K, P> {
+        &self.search
     }
 
     /// The finished plan, once [`Planner::step`] has returned [`Status::Finished`].
@@ -598,24 +567,16 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         }
     }
 
-    /// The search's progress: (iteration, candidate index).
-    fn search_progress(&self) -> (u32, u32) {
-        match self.config.strategy {
-            Strategy::Cpso => Optimizer::<N, K>::progress(&self.cpso),
-            Strategy::Multistart => self.multistart.progress(),
-        }
-    }
-
     fn running(&self) -> Running {
         let (stage, (iteration, particle), best) = match &self.phase {
             Phase::Refine(r) => (
                 Stage::Refine,
-                (self.search_progress().0, 0),
+                (self.search.progress().0, 0),
                 cost_of(r.best().1),
             ),
             _ => (
                 Stage::Search,
-                self.search_progress(),
+                self.search.progress(),
                 match &self.record {
                     Record::Found(_, o) => cost_of(o),
                     Record::Failed(_) => Cost::FAILED,
@@ -634,10 +595,9 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     /// The next candidate; its violation cap is applied only once a finished rollout is on
     /// record, so that an abandoned rollout never leaves the search without a result.
     fn candidate(&self) -> Candidate<K> {
-        let c = match (&self.phase, self.config.strategy) {
-            (Phase::Refine(r), _) => r.candidate(),
-            (_, Strategy::Cpso) => Optimizer::<N, K>::candidate(&self.cpso),
-            (_, Strategy::Multistart) => self.multistart.candidate(),
+        let c = match &self.phase {
+            Phase::Refine(r) => r.candidate(),
+            _ => self.search.candidate(),
         };
         self.capped(c)
     }
@@ -645,11 +605,10 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     /// The candidate `j` places after [`Planner::candidate`], if the search knows it and
     /// it needs no truth model (see [`Optimizer::ahead`]).
     fn ahead_candidate(&self, j: usize) -> Option<Candidate<K>> {
-        let c = match (&self.phase, self.config.strategy) {
-            (Phase::Refine(r), _) => r.ahead(j),
-            (Phase::Search, Strategy::Cpso) => Optimizer::<N, K>::ahead(&self.cpso, j),
-            (Phase::Search, Strategy::Multistart) => self.multistart.ahead(j),
-            (Phase::Done(_) | Phase::Failed(_), _) => None,
+        let c = match &self.phase {
+            Phase::Refine(r) => r.ahead(j),
+            Phase::Search => self.search.ahead(j),
+            Phase::Done(_) | Phase::Failed(_) => None,
         }?;
         (!c.truth).then(|| self.capped(c))
     }
@@ -766,31 +725,44 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     }
 
     fn plan(&self, stop: Stop, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Plan<N, K> {
-        let (iterations, stagnation_events, restarts) = match self.config.strategy {
-            Strategy::Cpso => (
-                self.cpso.iterations(),
-                self.cpso.swarm().stagnation_events(),
-                0,
-            ),
-            Strategy::Multistart => {
-                let r = self.multistart.report();
-                (r.accepted, 0, r.starts.saturating_sub(1))
-            }
-        };
+        let report = self.search.report();
         Plan {
             stop,
-            strategy: self.config.strategy,
+            strategy: self.search.strategy(),
             eta,
             outcome,
-            iterations,
+            iterations: report.iterations,
             rollouts: self.rollouts,
             search_rollouts: self.search_rollouts,
             abandoned: self.abandoned,
-            stagnation_events,
-            restarts,
+            stagnation_events: report.stagnation_events,
+            restarts: report.restarts,
             first_hit: self.first_hit,
             search_f: self.search_f,
             refine: None,
+        }
+    }
+
+    /// `true` if `outcome` (with `truth_f`, the truth model's f, if it was evaluated) meets
+    /// what was asked: Φ = 0 and f ≤ σ_e and, when a refinement tolerance is set, f below
+    /// it against the planner model or `truth_f` below it against the truth model.
+    fn meets(&self, outcome: &Outcome<N>, truth_f: Option<f64>) -> bool {
+        let c = &self.config;
+        let refined = match (c.refine_tolerance, c.refine_against) {
+            (None, _) => true,
+            (Some(t), RefineAgainst::Planner) => outcome.f <= t,
+            (Some(t), RefineAgainst::Truth) => truth_f.is_some_and(|f| f <= t),
+        };
+        outcome.phi == 0.0 && outcome.f <= c.tolerance && refined
+    }
+
+    /// How a plan ends: [`Stop::Converged`] if it meets what was asked, else how the
+    /// stage that ended it stopped ([`Stop::Stalled`] or [`Stop::Exhausted`]).
+    fn verdict(&self, met: bool, ended: Stop) -> Stop {
+        match (met, ended) {
+            (true, _) => Stop::Converged,
+            (false, Stop::Stalled) => Stop::Stalled,
+            (false, _) => Stop::Exhausted,
         }
     }
 
@@ -829,14 +801,21 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         });
     }
 
-    /// The plan of a finished (or budget-stopped) refinement: converged, as the search was.
+    /// The plan of a finished (or budget-stopped) refinement: converged if it met what
+    /// was asked.
     fn refined(&self, r: &Refiner<N, K>) -> Phase<N, K> {
         let (eta, best) = r.best();
-        let mut plan = self.plan(Stop::Converged, *eta, *best);
         let mut report = r.report();
         if !r.done() {
             report.stop = RefineStop::Budget;
         }
+        let ended = match report.stop {
+            RefineStop::Reached => Stop::Converged,
+            RefineStop::Budget => Stop::Exhausted,
+            RefineStop::Stalled => Stop::Stalled,
+        };
+        let stop = self.verdict(self.meets(best, report.truth_f), ended);
+        let mut plan = self.plan(stop, *eta, *best);
         plan.refine = Some(report);
         Phase::Done(plan)
     }
@@ -844,104 +823,56 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     fn absorb_search<O: Observer>(&mut self, evaluation: &Evaluation<N>, observer: &mut O) {
         self.search_rollouts += 1;
         self.record = self.record.fold(&self.eta, evaluation);
-        let next = match self.config.strategy {
-            Strategy::Cpso => self.cpso.absorb(evaluation, &mut self.stream, observer),
-            Strategy::Multistart => self
-                .multistart
-                .absorb(evaluation, &mut self.stream, observer),
-        };
-        let next = match next {
+        let next = match self.search.absorb(evaluation, &mut self.stream, observer) {
             Next::Continue if self.rollouts >= self.config.max_rollouts => {
                 Next::Done(Stop::Exhausted)
             }
             other => other,
         };
-        self.phase = match (next, evaluation.outcome(), self.record) {
-            (Next::Continue, ..) => Phase::Search,
-            // The search's best point: the evaluation that met the tolerance (it dominates
+        self.phase = match (next, self.record) {
+            (Next::Continue, _) => Phase::Search,
+            // The search's best point: the evaluation that met its tolerance (it dominates
             // everything before it), or the multistart's floor below σ_e.
-            (Next::Done(Stop::Converged), _, Record::Found(eta, o)) => {
+            (Next::Done(Stop::Converged), Record::Found(eta, o)) => {
                 self.eta = eta;
                 self.search_f = o.f;
-                self.converged(o, observer)
+                self.converged(o)
             }
-            (Next::Done(_), _, Record::Found(eta, o)) => {
+            (Next::Done(ended), Record::Found(eta, o)) => {
                 self.search_f = o.f;
-                // The multistart searched to a refinement tolerance it did not reach: σ_e
-                // may still be met (converged, refinement stopped by the budget).
-                let met = o.phi == 0.0 && o.f <= self.config.tolerance;
-                let mut plan = self.plan(
-                    if met {
-                        Stop::Converged
-                    } else {
-                        Stop::Exhausted
-                    },
-                    eta,
-                    o,
-                );
-                plan.refine = self.multistart_refine(&o);
+                // The multistart searched to a refinement tolerance it did not reach: the
+                // plan is not converged, even if σ_e was met.
+                let mut plan = self.plan(self.verdict(self.meets(&o, None), ended), eta, o);
+                plan.refine = self.search_refinement(&o, ended);
                 Phase::Done(plan)
             }
-            (Next::Done(_), _, Record::Failed(e)) => Phase::Failed(e),
+            (Next::Done(_), Record::Failed(e)) => Phase::Failed(e),
         };
     }
 
-    /// After the search succeeded with the rollout `o` of `self.eta`: refinement, if
-    /// configured and not already met, else the plan.
-    fn converged<O: Observer>(&mut self, o: Outcome<N>, _: &mut O) -> Phase<N, K> {
-        let refine = match (
-            self.config.refine(),
-            self.config.strategy,
-            self.config.refine_against,
-        ) {
-            (Some(rc), Strategy::Cpso, RefineAgainst::Planner) => {
-                Some(Refiner::new(rc, self.eta, o))
-            }
-            (Some(rc), _, RefineAgainst::Truth) => Some(Refiner::against_truth(rc, self.eta, o)),
-            // The multistart refines against the planner model as it searches.
-            (Some(_), Strategy::Multistart, RefineAgainst::Planner) | (None, ..) => None,
-        };
-        match refine {
-            Some(r) if r.done() => {
-                let mut plan = self.plan(Stop::Converged, self.eta, o);
-                plan.refine = Some(r.report());
-                Phase::Done(plan)
-            }
+    /// After the search hit its tolerance with the rollout `o` of `self.eta`: the
+    /// refinement that follows, if any and not already met, else the plan.
+    fn converged(&mut self, o: Outcome<N>) -> Phase<N, K> {
+        match self.search.follow_up(&self.config, self.eta, o) {
+            Some(r) if r.done() => self.refined(&r),
             Some(_) if self.rollouts >= self.config.max_rollouts => {
-                Phase::Done(self.plan(Stop::Converged, self.eta, o))
+                let stop = self.verdict(self.meets(&o, None), Stop::Exhausted);
+                Phase::Done(self.plan(stop, self.eta, o))
             }
             Some(r) => Phase::Refine(r),
             None => {
-                let mut plan = self.plan(Stop::Converged, self.eta, o);
-                plan.refine = self.multistart_refine(&o);
+                let stop = self.verdict(self.meets(&o, None), Stop::Converged);
+                let mut plan = self.plan(stop, self.eta, o);
+                plan.refine = self.search_refinement(&o, Stop::Converged);
                 Phase::Done(plan)
             }
         }
     }
 
-    /// The multistart refines against the planner model as it searches: its refinement, as
-    /// a report, is what it did after the first hit of σ_e (`None` without a refinement
-    /// tolerance, or without a hit).
-    fn multistart_refine(&self, best: &Outcome<N>) -> Option<RefineReport> {
-        let (Strategy::Multistart, Some(tolerance), RefineAgainst::Planner, Some(hit)) = (
-            self.config.strategy,
-            self.config.refine_tolerance,
-            self.config.refine_against,
-            self.first_hit,
-        ) else {
-            return None;
-        };
-        let reached = best.phi == 0.0 && best.f <= tolerance;
-        Some(RefineReport {
-            iterations: self.multistart.report().accepted,
-            rollouts: self.rollouts.saturating_sub(hit),
-            stop: if reached {
-                RefineStop::Reached
-            } else {
-                RefineStop::Budget
-            },
-            f_start: self.first_hit_f,
-            truth_f: None,
-        })
+    /// The search's own refinement, as a report ([`Search::search_refinement`]).
+    fn search_refinement(&self, best: &Outcome<N>, ended: Stop) -> Option<RefineReport> {
+        let hit = self.first_hit.map(|h| (h, self.first_hit_f));
+        self.search
+            .search_refinement(&self.config, hit, best, self.rollouts, ended)
     }
 }

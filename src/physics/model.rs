@@ -419,7 +419,10 @@ fn validate_joint(j: &JointDesc, index: u8) -> Result<Vec3, Error> {
     let norm = axis.norm();
     // Components are finite here, so `norm` is finite or +∞ (never NaN).
     if (norm - 1.0).abs() > UNIT_TOLERANCE {
-        return Err(Error::AxisNotUnit(index));
+        return Err(Error::AxisNotUnit {
+            joint: index,
+            tolerance: UNIT_TOLERANCE,
+        });
     }
     if !j.lower.is_finite() {
         return Err(Error::NotFinite(Param::LowerLimit(index)));
@@ -535,7 +538,13 @@ mod tests {
         );
         let mut d = CHASER7;
         d.joints[4].axis = [0.0, 0.0, 0.0];
-        assert_eq!(Robot::new(&d), Err(Error::AxisNotUnit(5)));
+        assert_eq!(
+            Robot::new(&d),
+            Err(Error::AxisNotUnit {
+                joint: 5,
+                tolerance: UNIT_TOLERANCE
+            })
+        );
         let mut d = CHASER7;
         d.joints[0].lower = 1.0;
         assert_eq!(Robot::new(&d), Err(Error::LimitsInverted(1)));

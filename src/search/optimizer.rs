@@ -8,7 +8,8 @@
 //! the planner ([`crate::planner`]) evaluates every candidate under its budget, so each
 //! optimizer is resumable and budgeted for free. The C-PSO of the paper
 //! ([`crate::cpso::Cpso`]) and the Levenberg–Marquardt refinement
-//! ([`crate::refine::Refiner`]) implement it; a new strategy is one more implementation.
+//! ([`crate::refine::Refiner`]) implement it; a strategy also implements
+//! [`crate::strategy::Method`] and takes one arm of [`crate::strategy::Search`].
 //!
 //! Contract: the planner calls [`Optimizer::candidate`], evaluates it, then calls
 //! [`Optimizer::absorb`] exactly once with the evaluation, until `absorb` returns
@@ -101,10 +102,26 @@ impl<const N: usize> Evaluation<N> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Stop {
-    /// The last candidate is feasible (Φ = 0) with `f` within the tolerance.
+    /// The last candidate is feasible (Φ = 0) with `f` within the tolerance. For a plan:
+    /// the plan meets what was asked (σ_e, and the refinement tolerance when one is set).
     Converged,
     /// The optimizer's budget is spent: the planner reports the best point it evaluated.
     Exhausted,
+    /// The optimizer can get no closer (no descent left at rounding level) before its
+    /// budget is spent: the planner reports the best point it evaluated.
+    Stalled,
+}
+
+impl Stop {
+    /// `"converged"`, `"exhausted"` or `"stalled"`.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Stop::Converged => "converged",
+            Stop::Exhausted => "exhausted",
+            Stop::Stalled => "stalled",
+        }
+    }
 }
 
 /// What an optimizer says after absorbing an evaluation.

@@ -66,12 +66,12 @@ impl Motion {
             }
         }
         if !(1..=MAX_DEGREE).contains(&n) {
-            return Err(Error::DegreeOutOfRange);
+            return Err(Error::DegreeOutOfRange { max: MAX_DEGREE });
         }
         let ratio = tf_s / dt_s;
         // tf, dt are finite and positive, so `ratio` is positive or +∞ (never NaN).
         if ratio >= f64::from(MAX_STEPS) + 0.5 {
-            return Err(Error::TooManySteps);
+            return Err(Error::TooManySteps { max: MAX_STEPS });
         }
         let steps = libm::round(ratio);
         if steps < 1.0 || libm::fabs(steps - ratio) > 1e-9 * ratio {
@@ -432,11 +432,17 @@ mod tests {
             Err(Error::NotFinite(Param::FinalTime))
         );
         assert_eq!(Motion::new(1.0, 0.3, 1), Err(Error::StepsNotInteger));
-        assert_eq!(Motion::new(1e6, 1e-3, 1), Err(Error::TooManySteps));
-        assert_eq!(Motion::new(1.0, 0.01, 0), Err(Error::DegreeOutOfRange));
+        assert_eq!(
+            Motion::new(1e6, 1e-3, 1),
+            Err(Error::TooManySteps { max: MAX_STEPS })
+        );
+        assert_eq!(
+            Motion::new(1.0, 0.01, 0),
+            Err(Error::DegreeOutOfRange { max: MAX_DEGREE })
+        );
         assert_eq!(
             Motion::new(1.0, 0.01, MAX_DEGREE + 1),
-            Err(Error::DegreeOutOfRange)
+            Err(Error::DegreeOutOfRange { max: MAX_DEGREE })
         );
         assert_eq!(Motion::new(1.0, 2.0, 1), Err(Error::StepsNotInteger));
     }

@@ -1,0 +1,14 @@
+//! The flight layer: what flight software calls.
+//!
+//! Owns the resumable, budgeted [`planner`] that drives a search over rollouts, the
+//! fixed byte layout of a whole task ([`block`]), the setpoint stream of a finished plan
+//! ([`execute`]) and the reference scenario of spec §8 for code without a file system
+//! ([`reference`]).
+//!
+//! May use every layer below: [`crate::search`], [`crate::path`], [`crate::physics`],
+//! [`crate::error`], [`crate::lanes`].
+
+pub mod block;
+pub mod execute;
+pub mod planner;
+pub mod reference;

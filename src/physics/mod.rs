@@ -1,0 +1,15 @@
+//! The physics layer: the robot and what one configuration of it is.
+//!
+//! Owns the rigid-body description and the quantities of a single configuration `q`:
+//! [`geometry`] (rotations, quaternions, pose error), [`model`] (the robot, validated once),
+//! [`kinematics`] (forward kinematics of the free-floating chain), [`momentum`] (`H~b`,
+//! `H~bm`) and [`nullspace`] (the reaction null-space basis and its transport).
+//!
+//! May use: [`crate::error`] and [`crate::lanes`]. Nothing here knows of a path, a time
+//! law, a search or a planner.
+
+pub mod geometry;
+pub mod kinematics;
+pub mod model;
+pub mod momentum;
+pub mod nullspace;

@@ -369,14 +369,14 @@ def self_test(ff: FreeFloating, t, q, q0) -> bool:
     hb = ff.data.Ig.inertia.copy()
     report("L from A_g vs ccrba Ig.inertia w0 (relative)", np.linalg.norm(l - hb @ w0) / np.linalg.norm(l), 1e-12)
     # 2. The arm at rest for 1 s (100 segments): the base turns at |w0| to first order
-    #    (src/truth.rs, a_base_rate_at_rest_turns_the_base_at_hb_inverse_l).
+    #    (src/path/truth.rs, a_base_rate_at_rest_turns_the_base_at_hb_inverse_l).
     ts = np.arange(101) * 0.01
     qs = np.tile(q0, (101, 1))
     r = integrate(ff, ts, qs, q0, w0)
     report("arm at rest: max angle vs |w0| * 1 s (relative)", abs(r["max_angle"] - np.linalg.norm(w0)) / np.linalg.norm(w0), 1e-5)
     # 3. ... and the torque-free rigid body: RK4 of dq/dt = q (x) [0, w]/2, w = I^-1 R^T L,
     #    1e4 steps; the sub-step scheme agrees to its discretisation error (first order in
-    #    L dt: R0 is the attitude at the start of the sub-step, as in src/truth.rs).
+    #    L dt: R0 is the attitude at the start of the sub-step, as in src/path/truth.rs).
     hb_inv = np.linalg.inv(hb)
 
     def rate(qq):

@@ -90,11 +90,13 @@ pub use model::{BodyDesc, CHASER7, Inertia, JointDesc, Origin, Robot, RobotDesc,
 pub use momentum::{Momentum, generalized_jacobian};
 pub use multistart::{LmConfig, Multistart, MultistartReport};
 pub use nullspace::{Basis, PIVOT_TOLERANCE, RANK_TOLERANCE, conditioning};
-pub use optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
+pub use optimizer::{
+    Candidate, Evaluation, Event, Method, Next, Observer, Optimizer, SearchReport, Stop,
+};
 pub use planner::{Plan, Planner, Running, Stage, Status};
 pub use refine::{RefineReport, RefineStop};
 pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
-pub use strategy::{Method, Search, SearchReport};
+pub use strategy::Search;
 pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};

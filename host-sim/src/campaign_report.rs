@@ -19,6 +19,9 @@ pub struct Run {
     pub seed: u64,
     /// `converged` (what was asked is met, see `asked`) or `not_converged`.
     pub status: String,
+    /// Why planning stopped: `converged`, `exhausted` (a budget was spent first) or
+    /// `stalled` (no step got closer: for a 6-joint arm, the target's floor).
+    pub stop: String,
     /// What was asked, in words (`crate::goal::Asked::describe`).
     pub asked: String,
     /// C-PSO iterations.

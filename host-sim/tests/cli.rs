@@ -624,6 +624,34 @@ fn a_plan_that_misses_the_asked_tolerance_is_not_converged() {
     assert!(csv.contains(",not_converged,"), "{csv}");
 }
 
+/// A 6-joint arm reaches a target the truth model made only to the planner model's floor
+/// (5 unknowns for 6 pose equations): the default goal stops there after a few starts,
+/// reports the plan as stalled and names the floor and the way to reach the target.
+/// Verifies RL-PLAN-013.
+#[test]
+fn a_six_joint_arm_reports_its_floor() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o = host_sim()
+        .arg("plan")
+        .arg(root().join("tests/records/tasks/arm6/task_002.toml"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("is this target's floor on the planner model"),
+        "{err}"
+    );
+    assert!(err.contains("--refine-against truth"), "{err}");
+    let p = read_json(&out.join("plan.json"));
+    assert_eq!(p["stop"], "stalled");
+    assert_eq!(p["refine"]["stop"], "stalled");
+    assert!(p["rollouts"].as_u64().unwrap() < 1000, "{}", p["rollouts"]);
+}
+
 /// A plan whose budget is spent exits 1 after exactly `max_rollouts` rollouts.
 /// Verifies RL-PLAN-009.
 #[test]

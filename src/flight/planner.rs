@@ -46,11 +46,12 @@
 use crate::batch::{Batch, Ended, Engine, Portable};
 use crate::config::{PlannerConfig, RefineAgainst, Strategy};
 use crate::error::Error;
+use crate::optimizer::Method;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
 use crate::refine::{RefineReport, RefineStop, Refiner};
 use crate::rollout::{Outcome, Progress, Rollout, Sample};
-use crate::strategy::{Method, Search};
+use crate::strategy::Search;
 use crate::swarm::{Cost, Swarm};
 use crate::task::Task;
 use crate::truth::{TRUTH_SUBSTEPS, TruthState};

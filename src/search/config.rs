@@ -12,7 +12,6 @@
 //! documentation, nothing else.
 
 use crate::error::{Error, Param};
-pub use crate::strategy::Strategy;
 
 /// Longest stagnation window (generations).
 pub const MAX_WINDOW: usize = 64;
@@ -66,6 +65,71 @@ pub struct PlannerConfig {
     pub frame_budget: u32,
     /// The stagnation alarm (`[planner.stagnation]`).
     pub stagnation: StagnationConfig,
+}
+
+/// How the planner searches η (`[planner] strategy`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(rename_all = "lowercase")
+)]
+pub enum Strategy {
+    /// Multistart Levenberg–Marquardt on the unit sphere of η ([`crate::multistart`]): the
+    /// default.
+    Multistart,
+    /// The paper's constrained PSO (spec §7, [`crate::cpso`]), then the optional
+    /// refinement ([`crate::refine`]).
+    Cpso,
+    /// A test-only random search (the core's unit tests, [`crate::strategy`]): the proof
+    /// that a strategy is one file and one arm.
+    #[cfg(test)]
+    Random,
+}
+
+impl Strategy {
+    /// Every strategy, in wire-code order.
+    pub const ALL: &'static [Strategy] = &[
+        Strategy::Multistart,
+        Strategy::Cpso,
+        #[cfg(test)]
+        Strategy::Random,
+    ];
+
+    /// The one table: task-file name and wire code (task block, C ABI `rl_plan.strategy`).
+    const fn entry(self) -> (&'static str, u32) {
+        match self {
+            Strategy::Multistart => ("multistart", 0),
+            Strategy::Cpso => ("cpso", 1),
+            #[cfg(test)]
+            Strategy::Random => ("random", 2),
+        }
+    }
+
+    /// The task-file name (`"multistart"`, `"cpso"`).
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        self.entry().0
+    }
+
+    /// The wire code (u32) of the task block and the C ABI.
+    #[must_use]
+    pub const fn code(self) -> u32 {
+        self.entry().1
+    }
+
+    /// The strategy of a task-file name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().copied().find(|s| s.name() == name)
+    }
+
+    /// The strategy of a wire code.
+    #[must_use]
+    pub fn from_code(code: u32) -> Option<Self> {
+        Self::ALL.iter().copied().find(|s| s.code() == code)
+    }
 }
 
 /// Which end pose refinement drives (`[planner] refine_against`).
@@ -327,5 +391,22 @@ impl RefineConfig {
             return Err(Error::NotPositive(Param::RefineRollouts));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Strategy;
+
+    /// Names and wire codes are unique and round-trip.
+    #[test]
+    fn names_and_codes_round_trip() {
+        for (i, s) in Strategy::ALL.iter().enumerate() {
+            assert_eq!(Strategy::from_name(s.name()), Some(*s));
+            assert_eq!(Strategy::from_code(s.code()), Some(*s));
+            assert_eq!(s.code() as usize, i);
+        }
+        assert_eq!(Strategy::from_name("pso"), None);
+        assert_eq!(Strategy::from_code(99), None);
     }
 }

@@ -17,8 +17,8 @@ use crate::config::PlannerConfig;
 use crate::error::Error;
 use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
+use crate::optimizer::{Method, SearchReport};
 use crate::random::Stream;
-use crate::strategy::{Method, SearchReport};
 use crate::swarm::Swarm;
 
 /// C-PSO over a swarm of capacity `P`.

@@ -58,10 +58,10 @@ use crate::config::{PlannerConfig, RefineAgainst};
 use crate::error::{Error, Param};
 use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
+use crate::optimizer::{Method, SearchReport};
 use crate::random::Stream;
 use crate::refine::solve_spd_in_place;
 use crate::rollout::Outcome;
-use crate::strategy::{Method, SearchReport};
 
 /// Below this `f` (m and rad, as σ_e) a start that stalls is handed to the refinement
 /// against the truth model instead of being restarted, when the planner refines against

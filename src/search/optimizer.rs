@@ -9,15 +9,17 @@
 //! optimizer is resumable and budgeted for free. The C-PSO of the paper
 //! ([`crate::cpso::Cpso`]) and the Levenberg–Marquardt refinement
 //! ([`crate::refine::Refiner`]) implement it; a strategy also implements
-//! [`crate::strategy::Method`] and takes one arm of [`crate::strategy::Search`].
+//! [`Method`] and takes one arm of [`crate::strategy::Search`].
 //!
 //! Contract: the planner calls [`Optimizer::candidate`], evaluates it, then calls
 //! [`Optimizer::absorb`] exactly once with the evaluation, until `absorb` returns
 //! [`Next::Done`]. Every random draw an optimizer makes happens inside `absorb`, from the
 //! planner's one stream, at points the optimizer documents (golden records depend on them).
 
+use crate::config::PlannerConfig;
 use crate::error::Error;
 use crate::geometry::PoseError;
+use crate::model::Robot;
 use crate::random::Stream;
 use crate::rollout::Outcome;
 use crate::swarm::Cost;
@@ -163,6 +165,45 @@ pub trait Optimizer<const N: usize, const K: usize> {
         let _ = j;
         None
     }
+}
+
+/// The counters of a search that a plan reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SearchReport {
+    /// C-PSO: generations after the initial one; multistart: accepted LM steps.
+    pub iterations: u32,
+    /// C-PSO's stagnation alarms (0 for other strategies).
+    pub stagnation_events: u32,
+    /// The multistart's LM starts after the first (0 for other strategies).
+    pub restarts: u32,
+}
+
+/// What the planner asks of a strategy besides the [`Optimizer`] seam.
+pub trait Method<const N: usize, const K: usize>: Optimizer<N, K> {
+    /// Starts the search in place for `config` on `robot`, drawing what it draws at its
+    /// start from `stream` (the strategy documents its draw order).
+    ///
+    /// # Errors
+    /// A bad setting; the search is then finished with nothing found.
+    fn start(
+        &mut self,
+        config: &PlannerConfig,
+        robot: &Robot<N>,
+        stream: &mut Stream,
+    ) -> Result<(), Error>;
+
+    /// The f (m and rad, as σ_e) at which the search stops with a hit.
+    fn tolerance(&self) -> f64;
+
+    /// `true` if the search drives f below a refinement tolerance itself (against the
+    /// planner model), so no separate refinement against the planner model follows.
+    fn refines_as_it_searches(&self) -> bool {
+        false
+    }
+
+    /// Counters for the plan.
+    fn report(&self) -> SearchReport;
 }
 
 /// Something the planner did, for logs and histories.

@@ -1,6 +1,6 @@
 //! A test-only strategy: pure random search of η's direction. It exists to prove the seam:
 //! a strategy is this one file plus one arm of [`crate::strategy::Search`] (and its row in
-//! [`crate::strategy::Strategy`]'s table); the planner needed no change.
+//! [`crate::config::Strategy`]'s table); the planner needed no change.
 //!
 //! Owns [`RandomSearch`]. Every candidate is `2u − 1` per component (a₁, b₁, …, a_K, b_K),
 //! drawn when the search starts and after each evaluation; the search stops at the first
@@ -10,8 +10,8 @@ use crate::config::PlannerConfig;
 use crate::error::Error;
 use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
+use crate::optimizer::{Method, SearchReport};
 use crate::random::Stream;
-use crate::strategy::{Method, SearchReport};
 
 /// Random search over η (test-only).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -95,10 +95,10 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for RandomSearch<N, K> {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use crate::config::PlannerConfig;
+    use crate::config::Strategy;
     use crate::optimizer::Stop;
     use crate::planner::{Planner, Status};
     use crate::reference::paper_task;
-    use crate::strategy::Strategy;
 
     fn plan(budget: u32) -> crate::planner::Plan<7, 4> {
         let mut config = PlannerConfig::default_with_seed(3);

@@ -1,9 +1,9 @@
 //! The strategy seam: `[planner] strategy` resolved once, to the one search that runs.
 //!
-//! Owns [`Strategy`] (the setting, with its one name-and-wire-code table), the [`Method`]
-//! trait (what the planner asks of a strategy besides the [`Optimizer`] seam), [`Search`]
-//! (the running search: one arm per strategy, so only the chosen one's state occupies
-//! memory) and [`SearchReport`] (the counters a plan reports).
+//! Owns [`Search`]: the running search, one arm per [`Strategy`] (the setting, with its one
+//! name-and-wire-code table, in [`crate::config`]), so only the chosen strategy's state
+//! occupies memory. Each arm implements [`Optimizer`] and [`Method`] (what the planner asks
+//! of a strategy besides the ask/tell seam, in [`crate::optimizer`]).
 //!
 //! [`Search`] is built in place by [`Search::start`] when the planner (re)starts, and is
 //! itself an [`Optimizer`] and a [`Method`]: the planner never asks which strategy runs.
@@ -15,125 +15,23 @@
 //!
 //! **Adding a strategy** is one file and one arm: a module of this folder with a
 //! fixed-size state implementing [`Optimizer`] and [`Method`] (its draw order documented),
-//! a variant of [`Strategy`] with its row in [`Strategy::entry`], and an arm of [`Search`]
-//! (each `match` below has one line per strategy). The test-only random search
+//! a variant of [`Strategy`] with its row in its one table, and an arm of [`Search`] (each
+//! `match` below has one line per strategy). The test-only random search
 //! ([`crate::search`]'s `random_search`, compiled for the core's unit tests) is added
 //! exactly that way.
 
-use crate::config::{PlannerConfig, RefineAgainst};
+use crate::config::{PlannerConfig, RefineAgainst, Strategy};
 use crate::cpso::Cpso;
 use crate::error::Error;
 use crate::model::Robot;
 use crate::multistart::Multistart;
-use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
+use crate::optimizer::{
+    Candidate, Evaluation, Method, Next, Observer, Optimizer, SearchReport, Stop,
+};
 use crate::random::Stream;
 use crate::refine::{RefineReport, RefineStop, Refiner};
 use crate::rollout::Outcome;
 use crate::swarm::Swarm;
-
-/// How the planner searches η (`[planner] strategy`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Deserialize, serde::Serialize),
-    serde(rename_all = "lowercase")
-)]
-pub enum Strategy {
-    /// Multistart Levenberg–Marquardt on the unit sphere of η ([`crate::multistart`]): the
-    /// default.
-    Multistart,
-    /// The paper's constrained PSO (spec §7, [`crate::cpso`]), then the optional
-    /// refinement ([`crate::refine`]).
-    Cpso,
-    /// A test-only random search (the core's unit tests): the proof that a strategy is one
-    /// file and one arm.
-    #[cfg(test)]
-    Random,
-}
-
-impl Strategy {
-    /// Every strategy, in wire-code order.
-    pub const ALL: &'static [Strategy] = &[
-        Strategy::Multistart,
-        Strategy::Cpso,
-        #[cfg(test)]
-        Strategy::Random,
-    ];
-
-    /// The one table: task-file name and wire code (task block, C ABI `rl_plan.strategy`).
-    const fn entry(self) -> (&'static str, u32) {
-        match self {
-            Strategy::Multistart => ("multistart", 0),
-            Strategy::Cpso => ("cpso", 1),
-            #[cfg(test)]
-            Strategy::Random => ("random", 2),
-        }
-    }
-
-    /// The task-file name (`"multistart"`, `"cpso"`).
-    #[must_use]
-    pub const fn name(self) -> &'static str {
-        self.entry().0
-    }
-
-    /// The wire code (u32) of the task block and the C ABI.
-    #[must_use]
-    pub const fn code(self) -> u32 {
-        self.entry().1
-    }
-
-    /// The strategy of a task-file name.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.iter().copied().find(|s| s.name() == name)
-    }
-
-    /// The strategy of a wire code.
-    #[must_use]
-    pub fn from_code(code: u32) -> Option<Self> {
-        Self::ALL.iter().copied().find(|s| s.code() == code)
-    }
-}
-
-/// The counters of a search that a plan reports.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct SearchReport {
-    /// C-PSO: generations after the initial one; multistart: accepted LM steps.
-    pub iterations: u32,
-    /// C-PSO's stagnation alarms (0 for other strategies).
-    pub stagnation_events: u32,
-    /// The multistart's LM starts after the first (0 for other strategies).
-    pub restarts: u32,
-}
-
-/// What the planner asks of a strategy besides the [`Optimizer`] seam.
-pub trait Method<const N: usize, const K: usize>: Optimizer<N, K> {
-    /// Starts the search in place for `config` on `robot`, drawing what it draws at its
-    /// start from `stream` (the strategy documents its draw order).
-    ///
-    /// # Errors
-    /// A bad setting; the search is then finished with nothing found.
-    fn start(
-        &mut self,
-        config: &PlannerConfig,
-        robot: &Robot<N>,
-        stream: &mut Stream,
-    ) -> Result<(), Error>;
-
-    /// The f (m and rad, as σ_e) at which the search stops with a hit.
-    fn tolerance(&self) -> f64;
-
-    /// `true` if the search drives f below a refinement tolerance itself (against the
-    /// planner model), so no separate refinement against the planner model follows.
-    fn refines_as_it_searches(&self) -> bool {
-        false
-    }
-
-    /// Counters for the plan.
-    fn report(&self) -> SearchReport;
-}
 
 /// The running search: the chosen strategy's state, and only its.
 // The variants differ in size by design: the enum is the one place a strategy's state
@@ -307,22 +205,5 @@ impl<const N: usize, const K: usize, const P: usize> Optimizer<N, K> for Search<
 
     fn ahead(&self, j: usize) -> Option<Candidate<K>> {
         each!(self, s => Optimizer::<N, K>::ahead(s, j))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Names and wire codes are unique and round-trip.
-    #[test]
-    fn names_and_codes_round_trip() {
-        for (i, s) in Strategy::ALL.iter().enumerate() {
-            assert_eq!(Strategy::from_name(s.name()), Some(*s));
-            assert_eq!(Strategy::from_code(s.code()), Some(*s));
-            assert_eq!(s.code() as usize, i);
-        }
-        assert_eq!(Strategy::from_name("pso"), None);
-        assert_eq!(Strategy::from_code(99), None);
     }
 }

@@ -36,6 +36,7 @@ fn one<const N: usize, const K: usize>(
         strategy: config.strategy.name().to_string(),
         seed: config.seed,
         status: status_name(p.converged()).to_string(),
+        stop: p.stop.name().to_string(),
         asked: asked.describe(),
         iterations: p.iterations,
         rollouts: p.rollouts,

@@ -62,7 +62,11 @@ macro_rules! each {
 
 impl<const N: usize, const K: usize, const P: usize> Search<N, K, P> {
     /// No search (the multistart's placeholder), `const`, for statically allocated planners.
-    pub const IDLE: Self = Search::Multistart(Multistart::IDLE);
+    pub const IDLE: Self = Self::MULTISTART;
+    const MULTISTART: Self = Search::Multistart(Multistart::IDLE);
+    const CPSO: Self = Search::Cpso(Cpso::IDLE);
+    #[cfg(test)]
+    const RANDOM: Self = Search::Random(crate::search::random_search::RandomSearch::IDLE);
 
     /// Makes `self` the search `config.strategy` names and starts it in place (the state of
     /// another strategy is dropped; nothing search-sized passes through the stack).
@@ -75,15 +79,16 @@ impl<const N: usize, const K: usize, const P: usize> Search<N, K, P> {
         robot: &Robot<N>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
+        // Each arm assigns a constant, which the compiler copies from read-only memory
+        // straight into `self` (a `match` that yields the value builds it on the stack
+        // first: 17 KB on the flight target).
         if self.strategy() != config.strategy {
-            *self = match config.strategy {
-                Strategy::Multistart => Search::Multistart(Multistart::IDLE),
-                Strategy::Cpso => Search::Cpso(Cpso::IDLE),
+            match config.strategy {
+                Strategy::Multistart => *self = Self::MULTISTART,
+                Strategy::Cpso => *self = Self::CPSO,
                 #[cfg(test)]
-                Strategy::Random => {
-                    Search::Random(crate::search::random_search::RandomSearch::IDLE)
-                }
-            };
+                Strategy::Random => *self = Self::RANDOM,
+            }
         }
         each!(self, s => Method::<N, K>::start(s, config, robot, stream))
     }

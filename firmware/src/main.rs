@@ -135,7 +135,8 @@ fn load(planner: &mut Planner<N, K, P>) -> Result<(u32, Option<RetimeSettings<N>
 }
 
 /// Re-times the plan's path to minimum time in the static grid (timed: the path's two
-/// rollouts and the solve), then streams every setpoint into a digest (timed), and reports.
+/// rollouts and the solve, with its streams measuring the written samples), then streams
+/// every setpoint into a digest (timed), and reports.
 #[inline(never)]
 fn retime_and_stream(
     task: &Task<N, K>,
@@ -147,7 +148,9 @@ fn retime_and_stream(
     let limits = Limits::new(qd_max, settings.qdd_max, settings.margin)?;
     rl_mark_retime_begin();
     let path = retime::path_of_rollout(task, eta, grid, settings.grid)?;
-    let profile = retime::solve(grid, &path, &limits)?;
+    // Solved until what the stream writes keeps the limits (spec §11), measured on the
+    // written samples: the stream below is held to the same definition.
+    let (profile, _) = retime::solve_written(grid, &path, &limits, task.motion().dt())?;
     rl_mark_retime_end();
     let mut stream = Stream::new(&profile, task.motion().dt())?;
     let mut digest = TrajectoryDigest::new();

@@ -49,6 +49,11 @@ pub struct RetimeSummary {
     pub max_abs_qdot: Vec<f64>,
     /// Largest |q̈| per joint over the written setpoints (rad/s²).
     pub max_abs_qddot: Vec<f64>,
+    /// Largest `|q(τ+1) − q(τ)|/dt` over the rate limit, of the written q (spec §11; ≤ 1).
+    pub written_rate_ratio: f64,
+    /// Largest `|q(τ+1) − 2q(τ) + q(τ−1)|/dt²` over the acceleration limit, of the written q
+    /// (spec §11; ≤ 1).
+    pub written_accel_ratio: f64,
     /// Largest base rotation of the written path, truth model (deg).
     pub base_disturbance_deg: f64,
     /// End pose of the last written q (planner model).
@@ -73,6 +78,8 @@ pub struct Retimed<const N: usize> {
     pub limits: Limits<N>,
     /// The original end configuration q_S (rad).
     pub q_final: [f64; N],
+    /// The largest rate and acceleration ratios of the written q (spec §11).
+    pub written: retime::Written,
 }
 
 /// Re-times `eta` of `task` on `grid` points under `qdd_max_deg` (deg/s²), the URDF rate
@@ -102,7 +109,9 @@ pub fn compute<const N: usize, const K: usize>(
             "[retime] grid = {grid}: cannot build the path: {e}"
         ))
     })?;
-    let profile = retime::solve(&mut storage, &path, &limits).or_failed(|| "re-timing failed")?;
+    let (profile, written) =
+        retime::solve_written(&mut storage, &path, &limits, task.motion().dt())
+            .or_failed(|| "re-timing failed")?;
     let mut stream =
         Stream::new(&profile, task.motion().dt()).or_failed(|| "re-timed setpoints")?;
     let mut setpoints = Vec::with_capacity(stream.steps() as usize + 1);
@@ -115,6 +124,7 @@ pub fn compute<const N: usize, const K: usize>(
         path_length_rad: path.length(),
         limits,
         q_final,
+        written,
     })
 }
 
@@ -258,6 +268,8 @@ pub fn write<const N: usize, const K: usize>(
         qdd_max: r.limits.qdd_max().to_vec(),
         max_abs_qdot: max_abs(sp, |s| s.qd),
         max_abs_qddot: max_abs(sp, |s| s.qdd),
+        written_rate_ratio: r.written.rate,
+        written_accel_ratio: r.written.accel,
         base_disturbance_deg: base_disturbance_deg(task, sp)?,
         end_pose: (&end).into(),
         f: end.error_to(task.target()).norm(),

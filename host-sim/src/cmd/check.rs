@@ -178,6 +178,8 @@ fn verify_retimed<const N: usize, const K: usize>(
         retimed_grid(&written, dt),
         retimed_duration(&written, summary, &fresh, dt),
         matches_fresh_retiming(&written, &fresh),
+        written_rates(&written, &fresh, dt),
+        written_accelerations(&written, &fresh, dt),
         retimed_rates(&written, &fresh),
         retimed_accelerations(&written, &fresh),
         accelerations_from_rates(&written, &fresh, dt),
@@ -264,11 +266,58 @@ fn matches_fresh_retiming<const N: usize>(
     )
 }
 
+/// Spec §11's rate test on the written q: `|q(τ+1) − q(τ)|/dt ≤ q̇max`, exactly.
+fn written_rates<const N: usize>(
+    written: &[Setpoint<N>],
+    fresh: &retiming::Retimed<N>,
+    dt: f64,
+) -> Line {
+    let mut worst = (0.0f64, String::from("none"));
+    for (row, w) in written.windows(2).enumerate() {
+        for (j, v) in fresh.limits.qd_max().iter().enumerate() {
+            let r = (w[1].q[j] - w[0].q[j]).abs() / dt / v;
+            if r > worst.0 || r.is_nan() {
+                worst = (r, format!("q{} rows {}-{}", j + 1, row, row + 1));
+            }
+        }
+    }
+    line(
+        "joint rates (differences of the written q)",
+        format!("{:.6} of the limit ({})", worst.0, worst.1),
+        "<= 1 x rate limit (spec §11)".into(),
+        worst.0 <= 1.0,
+    )
+}
+
+/// Spec §11's acceleration test on the written q: `|q(τ+1) − 2q(τ) + q(τ−1)|/dt² ≤ q̈max`,
+/// exactly.
+fn written_accelerations<const N: usize>(
+    written: &[Setpoint<N>],
+    fresh: &retiming::Retimed<N>,
+    dt: f64,
+) -> Line {
+    let mut worst = (0.0f64, String::from("none"));
+    for (row, w) in written.windows(3).enumerate() {
+        for (j, a) in fresh.limits.qdd_max().iter().enumerate() {
+            let r = (w[2].q[j] - 2.0 * w[1].q[j] + w[0].q[j]).abs() / (dt * dt) / a;
+            if r > worst.0 || r.is_nan() {
+                worst = (r, format!("q{} around row {}", j + 1, row + 1));
+            }
+        }
+    }
+    line(
+        "joint accelerations (second differences of the written q)",
+        format!("{:.6} of the limit ({})", worst.0, worst.1),
+        "<= 1 x acceleration limit (spec §11)".into(),
+        worst.0 <= 1.0,
+    )
+}
+
 /// The written rates against the rate limits.
 fn retimed_rates<const N: usize>(written: &[Setpoint<N>], fresh: &retiming::Retimed<N>) -> Line {
     let (r, at) = worst_ratio(written, fresh.limits.qd_max(), |s| s.qd, "qd");
     line(
-        "joint rates",
+        "joint rates (qd column)",
         format!("{r:.4} of the limit ({at})"),
         format!("<= {RETIME_TOLERANCE} x rate limit"),
         r <= RETIME_TOLERANCE,
@@ -282,7 +331,7 @@ fn retimed_accelerations<const N: usize>(
 ) -> Line {
     let (r, at) = worst_ratio(written, fresh.limits.qdd_max(), |s| s.qdd, "qdd");
     line(
-        "joint accelerations (written)",
+        "joint accelerations (qdd column)",
         format!("{r:.4} of the limit ({at})"),
         format!("<= {RETIME_TOLERANCE} x acceleration limit"),
         r <= RETIME_TOLERANCE,

@@ -10,6 +10,7 @@
 )]
 
 use reactionless::{Error, Param, PlannerConfig};
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 /// No `cmd/` file imports another: shared pieces live in named modules.
@@ -76,4 +77,105 @@ fn every_planner_setting_has_a_task_key() {
         }
         assert_eq!(Error::NotPositive(p).param(), Some(p));
     }
+}
+
+/// host-sim's modules, as `use crate::` edges between them: `cmd/NAME.rs` is `cmd::NAME`,
+/// every file of a directory module (`plots/`) is that module, and a file that imports
+/// `crate::cmd` reaches `cmd::NAME` through `cmd::NAME::`. Comments are not imports.
+fn module_imports() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    let mut dirs = vec![src.clone()];
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    let module = |path: &Path| -> Option<String> {
+        let rel = path.strip_prefix(&src).unwrap().with_extension("");
+        let parts: Vec<&str> = rel.iter().map(|p| p.to_str().unwrap()).collect();
+        match parts.as_slice() {
+            ["lib" | "main"] => None,
+            ["cmd", "mod"] => Some("cmd".into()),
+            ["cmd", leaf] => Some(format!("cmd::{leaf}")),
+            [top, ..] => Some((*top).to_string()),
+            [] => None,
+        }
+    };
+    let modules: BTreeSet<String> = files.iter().filter_map(|f| module(f)).collect();
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect()
+    };
+    let mut edges = BTreeMap::new();
+    for file in &files {
+        let Some(from) = module(file) else { continue };
+        let code: String = std::fs::read_to_string(file)
+            .unwrap()
+            .lines()
+            .map(|l| l.split("//").next().unwrap())
+            .collect::<Vec<_>>()
+            .join("\n");
+        let mut targets = BTreeSet::new();
+        if code.contains("use crate::cmd;") {
+            for rest in code.split("cmd::").skip(1) {
+                targets.insert(format!("cmd::{}", ident(rest)));
+            }
+        }
+        for rest in code.split("crate::").skip(1) {
+            let top = ident(rest);
+            let to = if top == "cmd" {
+                let leaf = ident(rest.strip_prefix("cmd::").unwrap_or(""));
+                format!("cmd::{leaf}")
+            } else {
+                top
+            };
+            targets.insert(to);
+        }
+        targets.retain(|t| *t != from && modules.contains(t));
+        edges
+            .entry(from)
+            .or_insert_with(BTreeSet::new)
+            .extend(targets);
+    }
+    edges
+}
+
+/// Data flows one way between host-sim's modules: the only import cycle is the command
+/// line's, whose `completions` and `manpage` leaves generate their output from the parser
+/// that lists them. Verifies RL-SIM-CLI-007.
+#[test]
+fn modules_import_without_cycles() {
+    let edges = module_imports();
+    // Every module reachable from `start`.
+    let reach = |start: &str| {
+        let mut seen = BTreeSet::new();
+        let mut todo = vec![start.to_string()];
+        while let Some(m) = todo.pop() {
+            for n in edges.get(&m).into_iter().flatten() {
+                if seen.insert(n.clone()) {
+                    todo.push(n.clone());
+                }
+            }
+        }
+        seen
+    };
+    let mut cyclic = BTreeSet::new();
+    for m in edges.keys() {
+        if reach(m).contains(m) {
+            cyclic.insert(m.clone());
+        }
+    }
+    let allowed = ["cli", "cmd::completions", "cmd::manpage"];
+    cyclic.retain(|m| !allowed.contains(&m.as_str()));
+    assert!(
+        cyclic.is_empty(),
+        "modules on an import cycle: {cyclic:?}; edges: {edges:#?}"
+    );
 }

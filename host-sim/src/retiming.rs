@@ -13,6 +13,7 @@ use crate::error::{CliError, Context};
 use crate::output::OutDir;
 use crate::plots::{self, RetimePlotData};
 use crate::taskfile::{self, LoadedTask};
+use crate::version::Build;
 use reactionless::TRUTH_SUBSTEPS;
 use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
 use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
@@ -296,10 +297,9 @@ fn write_figures<const N: usize>(
             qd_limit: r.limits.qd_max().to_vec(),
             qdd_limit: r.limits.qdd_max().to_vec(),
             stamp: format!(
-                "{} · retimed · host-sim {} ({})",
+                "{} · retimed · {}",
                 lt.path.display(),
-                env!("CARGO_PKG_VERSION"),
-                crate::records::Build::current().git_revision
+                Build::current().stamp()
             ),
         },
     )

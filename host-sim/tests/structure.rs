@@ -9,6 +9,7 @@
     missing_docs
 )]
 
+use host_sim::taskfile::DispersionSection;
 use reactionless::{Error, Param, PlannerConfig};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -77,6 +78,36 @@ fn every_planner_setting_has_a_task_key() {
         }
         assert_eq!(Error::NotPositive(p).param(), Some(p));
     }
+}
+
+/// Every `[dispersion]` key is declared once, in `DispersionSection::KEYS`: the list holds
+/// the task file's keys in table order, `disperse` has a flag of each key's name, and
+/// docs/task-format.md a row with its unit. Verifies RL-SIM-DISP-005.
+#[test]
+fn every_dispersion_key_is_declared_once() {
+    let names: Vec<&str> = DispersionSection::KEYS.iter().map(|k| k.name).collect();
+    let table = toml::to_string(&DispersionSection::default()).unwrap();
+    let fields: Vec<&str> = table
+        .lines()
+        .filter_map(|l| l.split(" = ").next())
+        .collect();
+    assert_eq!(fields, names, "the task file's keys");
+    let cli = <host_sim::cli::Cli as clap::CommandFactory>::command();
+    let disperse = cli.find_subcommand("disperse").unwrap();
+    let docs = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/task-format.md"),
+    )
+    .unwrap();
+    for key in DispersionSection::KEYS {
+        let flag = disperse
+            .get_arguments()
+            .find(|a| a.get_id() == key.name)
+            .unwrap_or_else(|| panic!("no flag for {}", key.name));
+        assert_eq!(flag.get_long(), Some(key.long().as_str()));
+        let row = format!("| `[dispersion] {}` | {}", key.name, key.unit);
+        assert!(docs.contains(&row), "docs/task-format.md has no row {row}");
+    }
+    assert_eq!(docs.matches("| `[dispersion] ").count(), names.len());
 }
 
 /// host-sim's modules, as `use crate::` edges between them: `cmd/NAME.rs` is `cmd::NAME`,

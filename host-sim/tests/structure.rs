@@ -42,7 +42,8 @@ fn subcommands_are_leaves() {
 }
 
 /// Every setting the planner validates names a key that the task file's `[planner]` table
-/// really has (the serialized defaults), so errors point at the right key.
+/// really has (the serialized defaults), so errors point at the right key; the list below
+/// holds every `Param` that `Param::key` puts under `planner.` (read from src/error.rs).
 /// Verifies RL-SIM-TASK-004.
 #[test]
 fn every_planner_setting_has_a_task_key() {
@@ -63,7 +64,19 @@ fn every_planner_setting_has_a_task_key() {
         Param::RefineTolerance,
         Param::RefineRollouts,
         Param::FrameBudget,
+        Param::MaxRollouts,
     ];
+    let error_rs =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../src/error.rs"))
+            .unwrap();
+    let keyed: BTreeSet<String> = error_rs
+        .lines()
+        .filter(|l| l.contains("=> \"planner."))
+        .map(|l| l.trim().strip_prefix("Param::").unwrap())
+        .map(|l| l.split([' ', '(']).next().unwrap().to_string())
+        .collect();
+    let listed: BTreeSet<String> = params.iter().map(|p| format!("{p:?}")).collect();
+    assert_eq!(listed, keyed, "the [planner] Params of Param::key");
     for p in params {
         let key = p.key().unwrap();
         let below = key.strip_prefix("planner.").unwrap();

@@ -11,6 +11,7 @@ use crate::error::{CliError, Context};
 use crate::output::{CsvSink, OutDir};
 use crate::plots::{self, PlotData};
 use crate::taskfile::{self, LoadedTask};
+use crate::version::Build;
 use reactionless::{
     IDENTITY_WXYZ, Outcome, Pose, Rollout, Sample, Sink, TRUTH_SUBSTEPS, Task, TrajectoryDigest,
     TruthModel,
@@ -243,15 +244,14 @@ pub fn write_figures<const N: usize, const K: usize>(
             (p.seed, p.strategy)
         });
     let stamp = format!(
-        "{} · {} · host-sim {} ({})",
+        "{} · {} · {}",
         lt.path.display(),
         if plan.is_some() {
             format!("seed {seed} · {}", strategy.name())
         } else {
             "rollout".to_string()
         },
-        env!("CARGO_PKG_VERSION"),
-        crate::records::Build::current().git_revision
+        Build::current().stamp()
     );
     let robot = task.robot();
     let data = PlotData {

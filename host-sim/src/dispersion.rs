@@ -1,8 +1,9 @@
 //! Dispersed truth models: what a planned joint path does to a spacecraft whose mass
 //! properties, joint axes and initial base rate differ from the nominal model.
 //!
-//! Owns the settings ([`Settings`]: the task file's `[dispersion]` table, overridden by
-//! command-line flags), the draws of one sample ([`Draw`], from random streams derived
+//! Reads its settings as [`Settings`] (the task file's `[dispersion]` table, whose keys
+//! `taskfile::DispersionSection::KEYS` declares once for the task file, `disperse`'s flags
+//! and the reports). Owns the draws of one sample ([`Draw`], from random streams derived
 //! from `(seed, sample, kind)` only, so a sample is the same on any thread and in any
 //! shard), their application to a URDF chain ([`Draw::apply`]), the flight of a joint path
 //! through the dispersed truth model ([`fly`]) and the one-at-a-time sensitivity

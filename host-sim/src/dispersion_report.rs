@@ -284,12 +284,10 @@ pub fn markdown(r: &Report) -> String {
             format!(" (this shard: {} of them)", r.rows)
         }
     );
-    for (k, v) in r.settings.entries() {
-        let _ = write!(
-            out,
-            " {k} = {v}{}",
-            if k == "truncation_sigmas" { "." } else { "," }
-        );
+    let entries = r.settings.entries();
+    for (i, (k, v)) in entries.iter().enumerate() {
+        let end = if i + 1 == entries.len() { "." } else { "," };
+        let _ = write!(out, " {k} = {v}{end}");
     }
     let _ = writeln!(
         out,

@@ -7,7 +7,8 @@
 //! Data flows one way: `taskfile`/`urdf` (inputs, with `goal`: what a plan must reach) → `drive` (the planner) → `artifacts`,
 //! `records`, `plots`, `view` (outputs, through `output`'s atomic writes), `flight` (the task
 //! block of the flight image and C clients) → `cmd/*` (one leaf per
-//! subcommand, which only these shared modules feed).
+//! subcommand, which only these shared modules feed). `version` names the build in every
+//! output that carries one.
 // A host tool: an out-of-range index here is a bug that should stop the program loudly.
 #![allow(clippy::indexing_slicing)]
 
@@ -31,4 +32,5 @@ pub mod shards;
 pub mod stats;
 pub mod taskfile;
 pub mod urdf;
+pub mod version;
 pub mod view;

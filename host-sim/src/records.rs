@@ -3,7 +3,7 @@
 //!
 //! Owns [`Record`] (format [`FORMAT`]): the task (its text, with the URDF path relative to
 //! the record), the SHA-256 of the URDF's content, the seed and refinement setting, the
-//! [`Build`] that made it, and the [`Outputs`]: status, iteration, rollout and stagnation
+//! [`Build`] that made it (`crate::version`), and the [`Outputs`]: status, iteration, rollout and stagnation
 //! counts, η, f and the end pose as exact IEEE-754 bit patterns ([`bits`]), and the
 //! FNV-1a-64 digest over the bit patterns of the whole trajectory
 //! ([`reactionless::TrajectoryDigest`]). [`outputs_of`] plans a task into outputs;
@@ -18,6 +18,7 @@
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
 use crate::taskfile::{LoadedTask, Overrides};
+use crate::version::Build;
 use reactionless::TrajectoryDigest;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -53,35 +54,6 @@ pub struct Record {
     pub build: Build,
     /// What was planned.
     pub outputs: Outputs,
-}
-
-/// A build of host-sim.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Build {
-    /// Crate version.
-    pub crate_version: String,
-    /// Git revision (`-dirty` with local changes), or `unknown`.
-    pub git_revision: String,
-    /// Target triple.
-    pub target: String,
-    /// Cargo profile (`debug` or `release`).
-    pub profile: String,
-    /// Optimisation level.
-    pub opt_level: String,
-}
-
-impl Build {
-    /// This build.
-    pub fn current() -> Self {
-        Self {
-            crate_version: env!("CARGO_PKG_VERSION").into(),
-            git_revision: env!("HOST_SIM_GIT_REV").into(),
-            target: env!("HOST_SIM_TARGET").into(),
-            profile: env!("HOST_SIM_PROFILE").into(),
-            opt_level: env!("HOST_SIM_OPT_LEVEL").into(),
-        }
-    }
 }
 
 /// A pose as bit patterns.

@@ -6,12 +6,14 @@
 //! re-timing of one η: grid, solve, every setpoint) and [`write`] (the bundle:
 //! `trajectory.csv` with header `t,q1..qN,qd1..qdN,qdd1..qddN`, `summary.json`, `task.toml`
 //! with the limits and grid used, `robot.urdf`, and with `--plots` the rate and
-//! acceleration figures).
+//! acceleration figures, whose data and stamp are filled here and drawn by `plots`).
 
 use crate::artifacts::PoseJson;
 use crate::error::{CliError, Context};
 use crate::output::OutDir;
+use crate::plots::{self, RetimePlotData};
 use crate::taskfile::{self, LoadedTask};
+use crate::version::Build;
 use reactionless::TRUTH_SUBSTEPS;
 use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
 use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
@@ -284,9 +286,35 @@ pub fn write<const N: usize, const K: usize>(
     dir.write_json("summary.json", &summary)?;
     write_bundle(lt, dir, qdd_max_deg, grid, margin)?;
     if plots {
-        crate::plots::write_retime_plots(&dir.path(""), lt, &r)?;
+        write_figures(&dir.path(""), lt, &r)?;
     }
     Ok(summary)
+}
+
+/// The figures of a re-timed bundle: each joint's rate and acceleration against its
+/// limits ([`plots::write_retime_data`]), stamped with the task and the build.
+fn write_figures<const N: usize>(
+    dir: &Path,
+    lt: &LoadedTask,
+    r: &Retimed<N>,
+) -> Result<Vec<String>, CliError> {
+    let sp = &r.setpoints;
+    plots::write_retime_data(
+        dir,
+        &RetimePlotData {
+            joint_names: lt.chain.joint_names.clone(),
+            t: sp.iter().map(|s| s.t).collect(),
+            qd: sp.iter().map(|s| s.qd.to_vec()).collect(),
+            qdd: sp.iter().map(|s| s.qdd.to_vec()).collect(),
+            qd_limit: r.limits.qd_max().to_vec(),
+            qdd_limit: r.limits.qdd_max().to_vec(),
+            stamp: format!(
+                "{} · retimed · {}",
+                lt.path.display(),
+                Build::current().stamp()
+            ),
+        },
+    )
 }
 
 /// The bundle with the limits and grid that were used, so `check` re-derives the same bits.

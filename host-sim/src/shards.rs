@@ -8,6 +8,7 @@
 //! they are every shard `1..=M` of one run exactly once.
 
 use crate::error::{CliError, Context};
+use crate::version::Build;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::ops::Range;
@@ -108,13 +109,9 @@ pub struct Manifest {
     pub wall_time_s: f64,
 }
 
-/// The build string of this binary.
+/// The manifest's `build`: this binary's [`Build::stamp`].
 pub fn build() -> String {
-    format!(
-        "host-sim {} ({})",
-        env!("CARGO_PKG_VERSION"),
-        crate::records::Build::current().git_revision
-    )
+    Build::current().stamp()
 }
 
 /// SHA-256 (hex) over `parts`, each prefixed by its length (so no two lists collide).

@@ -83,37 +83,90 @@ impl Default for DispersionSection {
     }
 }
 
+/// One `[dispersion]` key: the task file's key, `disperse`'s flag of the same name, its
+/// unit (as docs/task-format.md gives it) and its bound. [`DispersionSection::KEYS`] lists
+/// them; the flags, [`DispersionSection::validate`], `summary.md` and the run's identity
+/// all read that list.
+#[derive(Debug, Clone, Copy)]
+pub struct DispersionKey {
+    /// The key, e.g. `mass_rel_sigma` (a field of [`DispersionSection`]).
+    pub name: &'static str,
+    /// Unit, as the task-format table gives it (`—` for a ratio).
+    pub unit: &'static str,
+    /// Whether 0 is allowed (a σ: 0 is not dispersed) or the value must be > 0.
+    pub zero_allowed: bool,
+    /// The help of the flag `--NAME` (`_` written `-`).
+    pub help: &'static str,
+    field: fn(&mut DispersionSection) -> &mut f64,
+}
+
+impl DispersionKey {
+    /// The flag's long name: the key with `-` for `_` (`mass-rel-sigma`).
+    pub fn long(&self) -> String {
+        self.name.replace('_', "-")
+    }
+
+    /// This key's value in `s`.
+    pub fn get(&self, s: &DispersionSection) -> f64 {
+        let mut copy = *s;
+        *(self.field)(&mut copy)
+    }
+
+    /// Sets this key's value in `s`.
+    pub fn set(&self, s: &mut DispersionSection, value: f64) {
+        *(self.field)(s) = value;
+    }
+}
+
+/// The [`DispersionKey`] of field `$field`, named after it.
+macro_rules! dispersion_key {
+    ($field:ident, $unit:literal, zero_allowed: $zero:literal, $help:literal) => {
+        DispersionKey {
+            name: stringify!($field),
+            unit: $unit,
+            zero_allowed: $zero,
+            help: $help,
+            field: |s| &mut s.$field,
+        }
+    };
+}
+
 impl DispersionSection {
+    /// Every key, in table order (the order of `summary.md` and of the run's identity).
+    pub const KEYS: [DispersionKey; 6] = [
+        dispersion_key!(mass_rel_sigma, "—", zero_allowed: true,
+            "Relative mass dispersion of every body (0.05 = 5 %)"),
+        dispersion_key!(inertia_rel_sigma, "—", zero_allowed: true,
+            "Relative inertia dispersion of every body"),
+        dispersion_key!(com_sigma_m, "m", zero_allowed: true,
+            "CoM offset per axis (m)"),
+        dispersion_key!(axis_sigma_deg, "deg", zero_allowed: true,
+            "Joint-axis misalignment per perpendicular direction (deg)"),
+        dispersion_key!(base_rate_sigma_deg_s, "deg/s", zero_allowed: true,
+            "Initial base rate per base axis (deg/s)"),
+        dispersion_key!(truncation_sigmas, "σ", zero_allowed: false,
+            "Normal draws beyond this many sigmas are redrawn (default 3)"),
+    ];
+
     /// Each setting's key and value, in table order.
     pub fn entries(&self) -> [(&'static str, f64); 6] {
-        [
-            ("mass_rel_sigma", self.mass_rel_sigma),
-            ("inertia_rel_sigma", self.inertia_rel_sigma),
-            ("com_sigma_m", self.com_sigma_m),
-            ("axis_sigma_deg", self.axis_sigma_deg),
-            ("base_rate_sigma_deg_s", self.base_rate_sigma_deg_s),
-            ("truncation_sigmas", self.truncation_sigmas),
-        ]
+        Self::KEYS.map(|k| (k.name, k.get(self)))
     }
 
     /// Checks every value; `source(key)` names where a bad value came from (the flag or
     /// the task file's key).
     pub fn validate(&self, source: impl Fn(&str) -> String) -> Result<(), CliError> {
-        for (key, v) in self.entries() {
-            let ok = if key == "truncation_sigmas" {
-                v.is_finite() && v > 0.0
+        for key in Self::KEYS {
+            let v = key.get(self);
+            let (ok, want) = if key.zero_allowed {
+                (v.is_finite() && v >= 0.0, "a finite number >= 0")
             } else {
-                v.is_finite() && v >= 0.0
+                (v.is_finite() && v > 0.0, "a finite number > 0")
             };
             if !ok {
-                let want = if key == "truncation_sigmas" {
-                    "a finite number > 0"
-                } else {
-                    "a finite number >= 0"
-                };
                 return Err(CliError::input(format!(
                     "{} = {v}: must be {want}",
-                    source(key)
+                    source(key.name)
                 )));
             }
         }

@@ -24,6 +24,7 @@ use crate::artifacts::{Summary, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
 use crate::output::{read_trajectory_csv, write_atomic};
 use crate::taskfile::LoadedTask;
+use crate::version::Build;
 use crate::with_dims;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion};
 use reactionless::TRUTH_SUBSTEPS;
@@ -236,12 +237,7 @@ fn data_n<const N: usize, const K: usize>(
         .into_inner();
     let max_deg = truth.max_angle().to_degrees();
     Ok(ViewData {
-        stamp: format!(
-            "{} · host-sim {} ({})",
-            shown.display(),
-            env!("CARGO_PKG_VERSION"),
-            crate::records::Build::current().git_revision
-        ),
+        stamp: format!("{} · {}", shown.display(), Build::current().stamp()),
         robot: lt.chain.name.clone(),
         n: N,
         joint_names: lt.chain.joint_names.clone(),

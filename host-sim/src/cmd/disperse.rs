@@ -17,7 +17,7 @@ use crate::drive;
 use crate::error::{CliError, Context};
 use crate::output::{OutDir, write_atomic};
 use crate::shards::{self, Manifest, Shard, parse_shard};
-use crate::taskfile::LoadedTask;
+use crate::taskfile::{DispersionKey, LoadedTask};
 use crate::urdf;
 use crate::with_dims;
 use rayon::prelude::*;
@@ -38,24 +38,9 @@ pub struct Args {
     /// Seed of the draws.
     #[arg(long)]
     seed: u64,
-    /// Relative mass dispersion of every body (0.05 = 5 %).
-    #[arg(long, allow_negative_numbers = true)]
-    mass_rel_sigma: Option<f64>,
-    /// Relative inertia dispersion of every body.
-    #[arg(long, allow_negative_numbers = true)]
-    inertia_rel_sigma: Option<f64>,
-    /// CoM offset per axis (m).
-    #[arg(long, allow_negative_numbers = true)]
-    com_sigma_m: Option<f64>,
-    /// Joint-axis misalignment per perpendicular direction (deg).
-    #[arg(long, allow_negative_numbers = true)]
-    axis_sigma_deg: Option<f64>,
-    /// Initial base rate per base axis (deg/s).
-    #[arg(long, allow_negative_numbers = true)]
-    base_rate_sigma_deg_s: Option<f64>,
-    /// Normal draws beyond this many sigmas are redrawn (default 3).
-    #[arg(long, allow_negative_numbers = true)]
-    truncation_sigmas: Option<f64>,
+    /// The `[dispersion]` keys as flags, each replacing its key when given.
+    #[command(flatten)]
+    dispersion: DispersionFlags,
     /// Worker threads (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
@@ -77,39 +62,10 @@ impl Args {
     /// The settings: the task's `[dispersion]`, each flag given replacing its key.
     fn settings(&self, lt: &LoadedTask) -> Result<Settings, CliError> {
         let mut s = lt.file.dispersion;
-        let flags = [
-            (&mut s.mass_rel_sigma, self.mass_rel_sigma, "mass_rel_sigma"),
-            (
-                &mut s.inertia_rel_sigma,
-                self.inertia_rel_sigma,
-                "inertia_rel_sigma",
-            ),
-            (&mut s.com_sigma_m, self.com_sigma_m, "com_sigma_m"),
-            (&mut s.axis_sigma_deg, self.axis_sigma_deg, "axis_sigma_deg"),
-            (
-                &mut s.base_rate_sigma_deg_s,
-                self.base_rate_sigma_deg_s,
-                "base_rate_sigma_deg_s",
-            ),
-            (
-                &mut s.truncation_sigmas,
-                self.truncation_sigmas,
-                "truncation_sigmas",
-            ),
-        ];
-        let mut given = Vec::new();
-        for (slot, flag, key) in flags {
-            if let Some(v) = flag {
-                *slot = v;
-                given.push(key);
-            }
-        }
-        s.validate(|key| {
-            if given.contains(&key) {
-                format!("--{}", key.replace('_', "-"))
-            } else {
-                format!("{}: [dispersion] {key}", lt.path.display())
-            }
+        let given = self.dispersion.apply(&mut s);
+        s.validate(|key| match given.iter().find(|k| k.name == key) {
+            Some(k) => format!("--{}", k.long()),
+            None => format!("{}: [dispersion] {key}", lt.path.display()),
         })?;
         Ok(s)
     }
@@ -152,6 +108,62 @@ impl Args {
             started,
         };
         pool.install(|| with_dims!(lt.chain.dof(), disperse, &run))
+    }
+}
+
+/// `--KEY` for every `[dispersion]` key ([`Settings::KEYS`]: `--mass-rel-sigma` …), in
+/// table order; a value given replaces the task file's.
+#[derive(Debug, Clone, Default)]
+struct DispersionFlags([Option<f64>; Settings::KEYS.len()]);
+
+impl DispersionFlags {
+    /// Writes every flag given into `s`; returns the keys it replaced.
+    fn apply(&self, s: &mut Settings) -> Vec<DispersionKey> {
+        let mut given = Vec::new();
+        for (key, flag) in Settings::KEYS.into_iter().zip(self.0) {
+            if let Some(v) = flag {
+                key.set(s, v);
+                given.push(key);
+            }
+        }
+        given
+    }
+}
+
+impl clap::Args for DispersionFlags {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        Settings::KEYS.iter().fold(cmd, |cmd, key| {
+            cmd.arg(
+                clap::Arg::new(key.name)
+                    .long(key.long())
+                    .value_name(key.name.to_uppercase())
+                    .value_parser(clap::value_parser!(f64))
+                    .action(clap::ArgAction::Set)
+                    .allow_negative_numbers(true)
+                    .help(key.help),
+            )
+        })
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl clap::FromArgMatches for DispersionFlags {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let mut flags = Self::default();
+        flags.update_from_arg_matches(matches)?;
+        Ok(flags)
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        for (key, flag) in Settings::KEYS.iter().zip(&mut self.0) {
+            if let Some(v) = matches.get_one::<f64>(key.name) {
+                *flag = Some(*v);
+            }
+        }
+        Ok(())
     }
 }
 

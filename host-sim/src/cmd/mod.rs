@@ -1,8 +1,8 @@
 //! One leaf per subcommand. Each file owns its `clap::Args` struct (flags and help) and
 //! `Args::run`; leaves import only the shared modules (`args`, `artifacts`, `drive`,
-//! `records`, `retiming`, `stats`, `output`, `taskfile`, `urdf`, `plots`, `view`,
-//! `campaign_report`, `dispersion`, `dispersion_report`, `shards`), never each other. A new
-//! subcommand is one file here plus two lines in `cli.rs`.
+//! `records`, `retiming`, `stats`, `output`, `taskfile`, `goal`, `urdf`, `view`, `flight`,
+//! `campaign_report`, `dispersion`, `dispersion_report`, `shards`, `version`), never each
+//! other. A new subcommand is one file here plus two lines in `cli.rs`.
 
 pub mod bench;
 pub mod block;

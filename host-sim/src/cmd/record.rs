@@ -7,8 +7,9 @@
 use crate::args::PlanArgs;
 use crate::error::{CliError, Context};
 use crate::output::write_atomic;
-use crate::records::{Build, FORMAT, Record, outputs_of, relative_text, sha256_hex};
+use crate::records::{FORMAT, Record, outputs_of, relative_text, sha256_hex};
 use crate::taskfile;
+use crate::version::Build;
 use crate::with_dims;
 use std::path::{Path, PathBuf};
 

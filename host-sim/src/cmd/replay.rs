@@ -7,8 +7,9 @@
 //! exit code.
 
 use crate::error::{CliError, Context};
-use crate::records::{Build, first_difference, outputs_of, read_record, sha256_hex};
+use crate::records::{first_difference, outputs_of, read_record, sha256_hex};
 use crate::taskfile::{self, Overrides};
+use crate::version::Build;
 use crate::with_dims;
 use reactionless::{RefineAgainst, Strategy};
 use std::path::{Path, PathBuf};

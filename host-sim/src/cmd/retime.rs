@@ -74,7 +74,8 @@ impl Args {
     }
 }
 
-/// Re-times `eta` of `lt` into `out` (shared by `plan --retime` through [`retiming`]).
+/// Re-times `eta` of `lt` into `out` through [`retiming::write`], which `plan --retime`
+/// calls too.
 pub fn run_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     eta: &[f64],

@@ -19,6 +19,10 @@
 //!    digest are compared with the host's re-timing (`host-sim retime`), and the
 //!    re-timing's instructions and static RAM are checked against their budgets.
 //!
+//! Each step is one function, called in this order by `Args::run`: `task_block_retimed`
+//! (1), `Image::read` (2), `emulate` (3), `parse` (4), the host's `outputs_of` and
+//! `compare` (5, 7), `within_budgets` and `report` (6).
+//!
 //! Exit 0 only when bit-identical and within budgets; 1 otherwise; 2 for bad input.
 
 use crate::args::PlanArgs;
@@ -28,6 +32,7 @@ use crate::flight::{retime_settings, task_block_retimed};
 use crate::records::{Outputs, PoseBits, bits, first_difference, outputs_of};
 use crate::taskfile;
 use object::{Object, ObjectSection, ObjectSymbol};
+use reactionless::block::RetimeSettings;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -458,53 +463,150 @@ pub struct Args {
 }
 
 impl Args {
-    /// Runs the subcommand.
+    /// Runs the subcommand: one call per stage of the module's steps.
     pub fn run(self) -> Result<(), CliError> {
-        run(&self, !self.no_build)
+        let overrides = self.planning.overrides();
+        let lt = taskfile::load(&self.task)?;
+        let settings = self
+            .retime
+            .then(|| retime_settings(&lt, self.accel_deg_s2, self.grid))
+            .transpose()?;
+        let block = task_block_retimed(&lt, &overrides, settings)?;
+        let image = Image::read(!self.no_build)?;
+        let emulation = emulate(&image, &block, self.timeout_s)?;
+        let on_target = parse(&emulation)?;
+        // The same task on the host (its capacity differs from the image's 64: results do not
+        // depend on it).
+        let on_host = crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
+        let (diff, retimed) = compare(
+            &lt,
+            self.accel_deg_s2,
+            settings.as_ref(),
+            &on_host,
+            &on_target,
+            &emulation.lines,
+        )?;
+        let within = within_budgets(&image.elf, &on_target);
+        let calls = on_target.instructions.calls;
+        if calls != on_target.frames {
+            return Err(CliError::failed(format!(
+                "the plugin saw {calls} calls, the image reported {} frames",
+                on_target.frames
+            )));
+        }
+        let report = report(
+            &lt,
+            &image,
+            &emulation,
+            &on_target,
+            retimed.as_ref(),
+            diff,
+            within,
+        );
+        if self.json {
+            println!(
+                "{}",
+                serde_json::to_string(&report).or_internal(|| "report JSON")?
+            );
+        } else {
+            print_report(&report, retimed.as_ref().map(|r| r.setpoints));
+        }
+        verdict(report)
     }
 }
 
-fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
-    let (json, timeout_s) = (args.json, args.timeout_s);
-    let overrides = args.planning.overrides();
-    let lt = taskfile::load(&args.task)?;
-    let settings = if args.retime {
-        Some(retime_settings(&lt, args.accel_deg_s2, args.grid)?)
-    } else {
-        None
-    };
-    let block = task_block_retimed(&lt, &overrides, settings)?;
-    let root = repo_root();
-    let elf_path = if build_first {
-        build(&root)?
-    } else {
-        root.join("target/firmware/thumbv7em-none-eabihf/release/reactionless-firmware")
-    };
-    let plugin = root.join("target/qemu/libinsn.so");
-    let elf_bytes = std::fs::read(&elf_path).map_err(|e| {
-        CliError::input(format!(
-            "{}: {e} (build it with scripts/build-firmware.sh)",
-            elf_path.display()
-        ))
-    })?;
-    let elf = read_elf(&elf_bytes)?;
+/// The flight image: its path, its bytes and what its ELF says.
+struct Image {
+    path: PathBuf,
+    bytes: Vec<u8>,
+    elf: Elf,
+}
+
+impl Image {
+    /// Builds the image first (`build_first`), or takes the one already built; reads it.
+    fn read(build_first: bool) -> Result<Self, CliError> {
+        let root = repo_root();
+        let path = if build_first {
+            build(&root)?
+        } else {
+            root.join("target/firmware/thumbv7em-none-eabihf/release/reactionless-firmware")
+        };
+        let bytes = std::fs::read(&path).map_err(|e| {
+            CliError::input(format!(
+                "{}: {e} (build it with scripts/build-firmware.sh)",
+                path.display()
+            ))
+        })?;
+        let elf = read_elf(&bytes)?;
+        Ok(Self { path, bytes, elf })
+    }
+}
+
+/// One run of the image under QEMU: its decoded output, the plugin's log and its wall time.
+struct Emulation {
+    /// The image's defmt output, one line per frame.
+    lines: Vec<String>,
+    /// Holds the task block and the plugin's log until the log is read.
+    work: tempfile::TempDir,
+    /// Wall time of the emulation (s).
+    seconds: f64,
+}
+
+impl Emulation {
+    /// The instruction-counting plugin's log.
+    fn log_path(&self) -> PathBuf {
+        self.work.path().join(PLUGIN_LOG)
+    }
+}
+
+/// The plugin's log, in the emulation's temporary directory.
+const PLUGIN_LOG: &str = "insn.log";
+
+/// Runs the image with `block` at [`TASK_ADDR`] and the plugin marking its `rl_mark_*`
+/// functions; gives up after `timeout_s`. A failed run is an error naming its output.
+fn emulate(image: &Image, block: &[u8], timeout_s: u64) -> Result<Emulation, CliError> {
     let work = tempfile::Builder::new()
         .prefix("host-sim-target-")
         .tempdir()
         .or_input(|| "cannot create a temporary directory")?;
     let block_path = work.path().join("task.bin");
-    let log_path = work.path().join("insn.log");
-    std::fs::write(&block_path, &block).or_input(|| block_path.display().to_string())?;
-    let mut plugin_arg = format!("{},out={}", plugin.display(), log_path.display());
-    for m in &elf.markers {
-        plugin_arg.push_str(&format!(",mark={m:x}"));
-    }
+    std::fs::write(&block_path, block).or_input(|| block_path.display().to_string())?;
     let start = Instant::now();
     let bar = crate::drive::spinner(
         "running the flight image under QEMU (the reference task takes about 10 s of emulation, C-PSO about 35 s)",
     );
-    let out = Command::new("timeout")
-        .arg(timeout_s.to_string())
+    let out = qemu(image, &block_path, &work.path().join(PLUGIN_LOG), timeout_s)
+        .output()
+        .or_input(|| "cannot run qemu-system-arm")?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let lines = decode_defmt(&image.bytes, &out.stdout)?;
+    if !out.status.success() {
+        return Err(CliError::failed(format!(
+            "QEMU exited with {} after {seconds:.0} s: {} {}",
+            out.status,
+            lines.join(" | "),
+            String::from_utf8_lossy(&out.stderr)
+        )));
+    }
+    Ok(Emulation {
+        lines,
+        work,
+        seconds,
+    })
+}
+
+/// `qemu-system-arm` for the image (mps2-an500, Cortex-M7, semihosting, one instruction
+/// per tick) with the block at [`TASK_ADDR`] and the counting plugin logging to `log`,
+/// under `timeout`.
+fn qemu(image: &Image, block_path: &Path, log: &Path, timeout_s: u64) -> Command {
+    let plugin = repo_root().join("target/qemu/libinsn.so");
+    let mut plugin_arg = format!("{},out={}", plugin.display(), log.display());
+    for m in &image.elf.markers {
+        plugin_arg.push_str(&format!(",mark={m:x}"));
+    }
+    let mut cmd = Command::new("timeout");
+    cmd.arg(timeout_s.to_string())
         .args([
             "qemu-system-arm",
             "-machine",
@@ -523,23 +625,32 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
         .arg("-plugin")
         .arg(plugin_arg)
         .arg("-kernel")
-        .arg(&elf_path)
-        .output()
-        .or_input(|| "cannot run qemu-system-arm")?;
-    let qemu_seconds = start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-    let lines = decode_defmt(&elf_bytes, &out.stdout)?;
-    if !out.status.success() {
-        return Err(CliError::failed(format!(
-            "QEMU exited with {} after {qemu_seconds:.0} s: {} {}",
-            out.status,
-            lines.join(" | "),
-            String::from_utf8_lossy(&out.stderr)
-        )));
-    }
-    let (on_target, stack, frames) = target_outputs(&lines)?;
+        .arg(&image.path);
+    cmd
+}
+
+/// What the image reported and the plugin counted.
+struct OnTarget {
+    /// The plan, in the form of a record's outputs.
+    outputs: Outputs,
+    /// Deepest stack use (bytes).
+    stack: u64,
+    /// `step` calls (frames) the image reported.
+    frames: u64,
+    /// `size_of` the planner (bytes).
+    planner_bytes: u64,
+    /// Static RAM of the re-timing grid (bytes).
+    grid_bytes: u64,
+    /// The plugin's instruction figures.
+    instructions: Instructions,
+}
+
+/// Parses the image's report (result, stack, sizes) and the plugin's log.
+fn parse(emulation: &Emulation) -> Result<OnTarget, CliError> {
+    let lines = &emulation.lines;
+    let (outputs, stack, frames) = target_outputs(lines)?;
     let size = |key: &str| -> Result<u64, CliError> {
-        fields(&lines, "SIZES")
+        fields(lines, "SIZES")
             .and_then(|f| {
                 f.iter()
                     .find(|(k, _)| *k == key)
@@ -549,113 +660,151 @@ fn run(args: &Args, build_first: bool) -> Result<(), CliError> {
     };
     let planner_bytes = size("planner")?;
     let grid_bytes = size("grid")?;
-    let log = std::fs::read_to_string(&log_path).or_failed(|| "plugin log")?;
-    let Instructions {
-        step,
-        rollout,
-        max_call,
-        mean_call,
-        calls,
-        total,
-        retime,
-        stream,
-    } = instruction_stats(&log)?;
-    // The same task on the host (its capacity differs from the image's 64: results do not
-    // depend on it).
-    let on_host = crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
-    let mut diff = first_difference(&on_host, &on_target)
+    let log = std::fs::read_to_string(emulation.log_path()).or_failed(|| "plugin log")?;
+    Ok(OnTarget {
+        outputs,
+        stack,
+        frames,
+        planner_bytes,
+        grid_bytes,
+        instructions: instruction_stats(&log)?,
+    })
+}
+
+/// The first difference between host and target (the plan, then with `settings` the
+/// re-timing of the image's `RETIME` line against the host's), and that re-timing.
+fn compare(
+    lt: &taskfile::LoadedTask,
+    accel_deg_s2: Option<f64>,
+    settings: Option<&RetimeSettings<FLIGHT_N>>,
+    on_host: &Outputs,
+    on_target: &OnTarget,
+    lines: &[String],
+) -> Result<(Option<String>, Option<RetimeReport>), CliError> {
+    let mut diff = first_difference(on_host, &on_target.outputs)
         .map(|d| format!("{}: host {}, target {}", d.what, d.first, d.second));
-    let retimed = retime_report(&lines)?;
-    if let Some(s) = &settings {
-        let on_target = retimed
+    let retimed = retime_report(lines)?;
+    if let Some(s) = settings {
+        let target_retime = retimed
             .clone()
             .ok_or_else(|| CliError::failed("the image did not report its re-timing"))?;
         // The limits as the task gives them (deg/s²): the host converts them as the block did.
         let qdd_deg = lt
-            .qdd_max_deg::<FLIGHT_N>(args.accel_deg_s2)?
+            .qdd_max_deg::<FLIGHT_N>(accel_deg_s2)?
             .ok_or_else(|| CliError::internal("re-timing settings without limits"))?;
-        let on_host = host_retime(&lt, &on_host.eta, &qdd_deg, s.grid, s.margin)?;
-        if diff.is_none() && on_host != on_target {
-            diff = Some(format!("re-timing: host {on_host:?}, target {on_target:?}"));
+        let host_retime = host_retime(lt, &on_host.eta, &qdd_deg, s.grid, s.margin)?;
+        if diff.is_none() && host_retime != target_retime {
+            diff = Some(format!(
+                "re-timing: host {host_retime:?}, target {target_retime:?}"
+            ));
         }
-        if retime.is_none() || stream.is_none() {
+        let i = &on_target.instructions;
+        if i.retime.is_none() || i.stream.is_none() {
             return Err(CliError::failed("the plugin logged no re-timing markers"));
         }
     }
-    let within_retime = retime.is_none_or(|r| r <= RETIME_INSTRUCTION_BUDGET)
-        && grid_bytes <= RETIME_STATIC_RAM_BUDGET;
-    let within = stack <= STACK_BUDGET
-        && elf.static_ram.saturating_sub(grid_bytes) <= STATIC_RAM_BUDGET
-        && within_retime;
-    let report = TargetJson {
+    Ok((diff, retimed))
+}
+
+/// Within the stack, static RAM and re-timing budgets.
+fn within_budgets(elf: &Elf, t: &OnTarget) -> bool {
+    let within_retime = t
+        .instructions
+        .retime
+        .is_none_or(|r| r <= RETIME_INSTRUCTION_BUDGET)
+        && t.grid_bytes <= RETIME_STATIC_RAM_BUDGET;
+    t.stack <= STACK_BUDGET
+        && elf.static_ram.saturating_sub(t.grid_bytes) <= STATIC_RAM_BUDGET
+        && within_retime
+}
+
+/// What `target` reports (`--json`, or the text of [`print_report`]).
+fn report(
+    lt: &taskfile::LoadedTask,
+    image: &Image,
+    emulation: &Emulation,
+    t: &OnTarget,
+    retimed: Option<&RetimeReport>,
+    diff: Option<String>,
+    within: bool,
+) -> TargetJson {
+    let i = &t.instructions;
+    TargetJson {
         bit_identical: diff.is_none(),
-        first_difference: diff.clone(),
-        instructions_per_step: step,
-        instructions_per_rollout: rollout,
-        max_instructions_per_call: max_call,
-        mean_instructions_per_call: mean_call,
-        calls,
+        first_difference: diff,
+        instructions_per_step: i.step,
+        instructions_per_rollout: i.rollout,
+        max_instructions_per_call: i.max_call,
+        mean_instructions_per_call: i.mean_call,
+        calls: i.calls,
         frame_budget: lt.file.planner.frame_budget,
-        total_instructions: total,
-        stack_high_water_bytes: stack,
-        flash_bytes: elf.flash,
-        static_ram_bytes: elf.static_ram,
-        planner_bytes,
-        retime_static_ram_bytes: grid_bytes,
-        retime_instructions: retime,
-        stream_instructions: stream,
-        retime_duration_s: retimed
-            .as_ref()
-            .map(|r| f64::from(r.steps) * lt.file.motion.dt_s),
-        setpoint_digest: retimed.as_ref().map(|r| format!("{:016x}", r.digest)),
-        converged: on_target.status == "converged",
-        iterations: on_target.iterations,
-        rollouts: on_target.rollouts,
-        trajectory_digest: on_target.trajectory_digest.clone(),
+        total_instructions: i.total,
+        stack_high_water_bytes: t.stack,
+        flash_bytes: image.elf.flash,
+        static_ram_bytes: image.elf.static_ram,
+        planner_bytes: t.planner_bytes,
+        retime_static_ram_bytes: t.grid_bytes,
+        retime_instructions: i.retime,
+        stream_instructions: i.stream,
+        retime_duration_s: retimed.map(|r| f64::from(r.steps) * lt.file.motion.dt_s),
+        setpoint_digest: retimed.map(|r| format!("{:016x}", r.digest)),
+        converged: t.outputs.status == "converged",
+        iterations: t.outputs.iterations,
+        rollouts: t.outputs.rollouts,
+        trajectory_digest: t.outputs.trajectory_digest.clone(),
         within_budgets: within,
-        qemu_seconds,
-        elf: elf_path.display().to_string(),
-    };
-    if calls != frames {
-        return Err(CliError::failed(format!(
-            "the plugin saw {calls} calls, the image reported {frames} frames"
-        )));
+        qemu_seconds: emulation.seconds,
+        elf: image.path.display().to_string(),
     }
-    if json {
+}
+
+/// The report as text; `setpoints`: how many the image streamed, if it re-timed.
+fn print_report(r: &TargetJson, setpoints: Option<u32>) {
+    println!(
+        "bit-identical to the host  {}",
+        if r.bit_identical { "yes" } else { "NO" }
+    );
+    println!("instructions per step      {}", r.instructions_per_step);
+    println!("instructions per rollout   {}", r.instructions_per_rollout);
+    println!(
+        "instructions per call      {} max, {:.0} mean over {} calls of {} steps",
+        r.max_instructions_per_call, r.mean_instructions_per_call, r.calls, r.frame_budget
+    );
+    println!(
+        "stack high-water           {} bytes (budget {STACK_BUDGET})",
+        r.stack_high_water_bytes
+    );
+    println!(
+        "static RAM                 {} bytes: {} re-timing grid (budget {RETIME_STATIC_RAM_BUDGET}), the rest within {STATIC_RAM_BUDGET} (planner {})",
+        r.static_ram_bytes, r.retime_static_ram_bytes, r.planner_bytes
+    );
+    if let (Some(i), Some(s), Some(n), Some(d)) = (
+        r.retime_instructions,
+        r.stream_instructions,
+        setpoints,
+        r.retime_duration_s,
+    ) {
         println!(
-            "{}",
-            serde_json::to_string(&report).or_internal(|| "report JSON")?
-        );
-    } else {
-        println!(
-            "bit-identical to the host  {}",
-            if report.bit_identical { "yes" } else { "NO" }
-        );
-        println!("instructions per step      {step}");
-        println!("instructions per rollout   {rollout}");
-        println!(
-            "instructions per call      {max_call} max, {mean_call:.0} mean over {calls} calls of {} steps",
-            report.frame_budget
-        );
-        println!("stack high-water           {stack} bytes (budget {STACK_BUDGET})");
-        println!(
-            "static RAM                 {} bytes: {} re-timing grid (budget {RETIME_STATIC_RAM_BUDGET}), the rest within {STATIC_RAM_BUDGET} (planner {})",
-            elf.static_ram, grid_bytes, report.planner_bytes
-        );
-        if let (Some(r), Some(s), Some(d)) = (retime, stream, &retimed) {
-            println!(
-                "re-timing                  {r} instructions (budget {RETIME_INSTRUCTION_BUDGET}), streaming {s} for {} setpoints; {:.2} s",
-                d.setpoints,
-                f64::from(d.steps) * lt.file.motion.dt_s
-            );
-        }
-        println!("flash                      {} bytes", elf.flash);
-        println!(
-            "plan on target             {} in {} iterations, {} rollouts; emulation {qemu_seconds:.1} s",
-            on_target.status, on_target.iterations, on_target.rollouts
+            "re-timing                  {i} instructions (budget {RETIME_INSTRUCTION_BUDGET}), streaming {s} for {n} setpoints; {d:.2} s"
         );
     }
-    match (diff, within) {
+    println!("flash                      {} bytes", r.flash_bytes);
+    println!(
+        "plan on target             {} in {} iterations, {} rollouts; emulation {:.1} s",
+        if r.converged {
+            "converged"
+        } else {
+            "not_converged"
+        },
+        r.iterations,
+        r.rollouts,
+        r.qemu_seconds
+    );
+}
+
+/// Exit 0 only when bit-identical and within budgets.
+fn verdict(r: TargetJson) -> Result<(), CliError> {
+    match (r.first_difference, r.within_budgets) {
         (Some(d), _) => Err(CliError::failed(format!("target and host differ: {d}"))),
         (None, false) => Err(CliError::failed(
             "the image exceeds its stack, static RAM or re-timing budget",

@@ -1,7 +1,11 @@
 //! Plots of a trajectory and a plan (plotters; PNG and SVG): the paper's Figs. 3–6 and more.
 //!
-//! Owns [`PlotData`] (everything a figure needs, in SI units as computed) and
-//! [`write_plots`]. Angles are shown in degrees on the axes (a report), labelled with units.
+//! Owns the figures' inputs as plain data, in SI units as computed: [`PlotData`] (a
+//! rollout or a plan), [`RetimePlotData`] (a re-timed trajectory) and [`Cdf`] (one
+//! dispersion figure); and their writers [`write_plots`], [`write_retime_data`] and
+//! [`write_cdfs`]. It reads no host-sim module but `error`: the callers (`artifacts`,
+//! `retiming`, `dispersion_report`) fill the data, the stamp included. Angles are shown in
+//! degrees on the axes (a report), labelled with units.
 //!
 //! Text needs no system fonts: plotters draws it with `ab_glyph` from a font embedded in the
 //! binary (a subset of DejaVu Sans, `host-sim/assets/`), registered on first use. The SVGs
@@ -116,32 +120,6 @@ pub fn write_retime_data(dir: &Path, data: &RetimePlotData) -> Result<Vec<String
     };
     let figures = figures::retime_figures(&base, &data.qdd, &data.qdd_limit).map_err(err)?;
     render(dir, &figures)
-}
-
-/// The figures of a re-timed bundle (see [`write_retime_data`]).
-pub fn write_retime_plots<const N: usize>(
-    dir: &Path,
-    lt: &crate::taskfile::LoadedTask,
-    r: &crate::retiming::Retimed<N>,
-) -> Result<Vec<String>, CliError> {
-    let sp = &r.setpoints;
-    write_retime_data(
-        dir,
-        &RetimePlotData {
-            joint_names: lt.chain.joint_names.clone(),
-            t: sp.iter().map(|s| s.t).collect(),
-            qd: sp.iter().map(|s| s.qd.to_vec()).collect(),
-            qdd: sp.iter().map(|s| s.qdd.to_vec()).collect(),
-            qd_limit: r.limits.qd_max().to_vec(),
-            qdd_limit: r.limits.qdd_max().to_vec(),
-            stamp: format!(
-                "{} · retimed · host-sim {} ({})",
-                lt.path.display(),
-                env!("CARGO_PKG_VERSION"),
-                crate::records::Build::current().git_revision
-            ),
-        },
-    )
 }
 
 /// One figure's values for [`write_cdfs`].

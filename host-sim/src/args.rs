@@ -28,6 +28,38 @@ pub fn parse_list(s: &str) -> Result<List, String> {
         .map(List)
 }
 
+/// Parses a whole number of type `T` for an integer flag (clap value parser), saying what
+/// is expected when it is not one: `'-1' is not a whole number from 0 to 4294967295`.
+fn whole<T: std::str::FromStr + std::fmt::Display>(
+    s: &str,
+    max: T,
+    what: &str,
+) -> Result<T, String> {
+    s.trim()
+        .parse::<T>()
+        .map_err(|_| format!("'{s}' is not {what}: a whole number from 0 to {max}"))
+}
+
+/// A seed (clap value parser): a whole number from 0 to 2⁶⁴ − 1.
+pub fn parse_seed(s: &str) -> Result<u64, String> {
+    whole(s, u64::MAX, "a seed")
+}
+
+/// A count or size that fits a `u32` (clap value parser).
+pub fn parse_u32(s: &str) -> Result<u32, String> {
+    whole(s, u32::MAX, "a count")
+}
+
+/// A count that fits a `u64` (clap value parser).
+pub fn parse_u64(s: &str) -> Result<u64, String> {
+    whole(s, u64::MAX, "a count")
+}
+
+/// A count that fits a `usize` (clap value parser).
+pub fn parse_usize(s: &str) -> Result<usize, String> {
+    whole(s, usize::MAX, "a count")
+}
+
 /// Most seeds one list may name.
 const MAX_SEEDS: u64 = 1_000_000;
 
@@ -119,7 +151,7 @@ impl GoalArgs {
 #[derive(Debug, Clone, Copy, Default, clap::Args)]
 pub struct PlanArgs {
     /// Seed of the random stream (overrides `[planner] seed`).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_seed)]
     pub seed: Option<u64>,
     /// Search strategy: multistart or cpso (overrides `[planner] strategy`).
     #[arg(long, value_parser = parse_strategy)]

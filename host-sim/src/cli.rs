@@ -3,7 +3,7 @@
 //! `run` arm).
 
 use crate::cmd;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Host simulator for the reactionless planner.
@@ -37,10 +37,33 @@ enum Command {
     View(cmd::view::Args),
 }
 
+/// The command line as parsed: every option that takes a value accepts a negative number
+/// after a space (`--seed -1`, `--refine-tolerance -1e-6` reach the value's own check, which
+/// names the flag, instead of being taken for an unknown flag `-1`). clap's own test of a
+/// negative number does not take an exponent with a sign (`-1e-6`), so an option whose
+/// value is an `f64` takes any value that starts with `-`.
+pub fn command() -> clap::Command {
+    let f64_id = std::any::TypeId::of::<f64>();
+    Cli::command().mut_subcommands(|sc| {
+        sc.mut_args(|a| {
+            if !a.get_action().takes_values() || a.is_positional() {
+                a
+            } else if a.get_value_parser().type_id() == f64_id {
+                a.allow_hyphen_values(true)
+            } else {
+                a.allow_negative_numbers(true)
+            }
+        })
+    })
+}
+
 /// Parses the command line, runs the subcommand, maps the result to the exit code (0
 /// success, 1 a result that does not pass, 2 bad input).
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::from_arg_matches(&command().get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     // A bad REACTIONLESS_ISA is bad input, whatever the subcommand.
     if let Err(e) = reactionless_simd::Isa::from_env() {
         eprintln!("error: {e}");
@@ -77,13 +100,10 @@ pub fn main() -> ExitCode {
 
 #[cfg(test)]
 mod tests {
-    use super::Cli;
-    use clap::CommandFactory;
-
     /// Clap's own consistency checks of every subcommand's arguments (a type mismatch
     /// between a value parser and its field panics only when the flag is used).
     #[test]
     fn the_command_line_is_consistent() {
-        Cli::command().debug_assert();
+        super::command().debug_assert();
     }
 }

@@ -4,7 +4,8 @@
 //! (`tempfile`) that is renamed into place only when the command succeeds, so an error
 //! never leaves a half-written result. An existing output directory is only replaced if
 //! host-sim made it (it holds the marker file [`MARKER`]); anything else is refused.
-//! [`write_atomic`] does the same for a single file (records), and [`CsvSink`] streams the
+//! [`write_file`] does the same for a single file (records, pages, blocks, URDFs) and
+//! replaces only a file host-sim wrote ([`FileKind`]), and [`CsvSink`] streams the
 //! trajectory in shortest round-trip form (parsing gives back the core's bits);
 //! [`read_trajectory_csv`] reads it back (`check`, `view`).
 
@@ -63,8 +64,11 @@ impl OutDir {
         let parent = parent_of(target);
         std::fs::create_dir_all(&parent)
             .or_input(|| format!("--out {shown}: cannot create parent"))?;
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".{name}.tmp-"))
+        let mut builder = tempfile::Builder::new();
+        let prefix = format!(".{name}.tmp-");
+        builder.prefix(&prefix);
+        umask_mode(&mut builder, true);
+        let tmp = builder
             .tempdir_in(&parent)
             .or_input(|| format!("--out {shown}: cannot create a temporary directory"))?;
         Ok(Self {
@@ -123,12 +127,76 @@ impl OutDir {
     }
 }
 
-/// Writes `contents` to `path` atomically: a temporary file beside it, then a rename.
-pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), CliError> {
+/// A single file host-sim writes with `--out FILE`, recognised by its content: such a file
+/// is replaced, any other is not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FileKind {
+    /// A certification record (`record`).
+    Record,
+    /// A 3-D replay page (`view`).
+    Page,
+    /// A task block (`block`).
+    Block,
+    /// A dispersed robot (`disperse --export-sample`).
+    Urdf,
+}
+
+impl FileKind {
+    /// `true` if `bytes` are a file of this kind that host-sim wrote.
+    fn recognises(self, bytes: &[u8]) -> bool {
+        let has = |needle: &str| bytes.windows(needle.len()).any(|w| w == needle.as_bytes());
+        match self {
+            FileKind::Record => has("\"format\": \"reactionless-record/"),
+            FileKind::Page => has("reactionless: the 3-D replay page"),
+            FileKind::Block => bytes.starts_with(b"RLTASK"),
+            FileKind::Urdf => has("<!-- written by host-sim"),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            FileKind::Record => "a certification record",
+            FileKind::Page => "a replay page",
+            FileKind::Block => "a task block",
+            FileKind::Urdf => "a URDF written by host-sim",
+        }
+    }
+}
+
+/// Writes `contents` to `path` (named `--out`) as a file of `kind`, atomically: a temporary
+/// file beside it, then a rename, with the mode the user's umask gives. An existing file is
+/// replaced only if host-sim wrote it (it is of `kind`); a directory is refused.
+pub fn write_file(path: &Path, contents: &[u8], kind: FileKind) -> Result<(), CliError> {
+    let shown = path.display();
+    if path.is_dir() {
+        return Err(CliError::input(format!(
+            "--out {shown}: is a directory; give a file name, e.g. {}",
+            path.join("out").display()
+        )));
+    }
+    if path.exists() {
+        let old = std::fs::read(path).or_input(|| format!("--out {shown}"))?;
+        if !kind.recognises(&old) {
+            return Err(CliError::input(format!(
+                "--out {shown}: exists and is not {} that host-sim wrote; refusing to replace it",
+                kind.name()
+            )));
+        }
+    }
+    write_atomic(path, contents)
+}
+
+/// Writes `contents` to `path` atomically: a temporary file beside it, then a rename; the
+/// file's mode is what the user's umask gives (as for any new file), not the temporary
+/// file's 0600.
+fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), CliError> {
     let dir = parent_of(path);
     std::fs::create_dir_all(&dir).or_input(|| dir.display().to_string())?;
-    let mut tmp = tempfile::Builder::new()
-        .prefix(&format!(".{}.tmp-", file_name(path, "--out")?))
+    let mut builder = tempfile::Builder::new();
+    let prefix = format!(".{}.tmp-", file_name(path, "--out")?);
+    builder.prefix(&prefix);
+    umask_mode(&mut builder, false);
+    let mut tmp = builder
         .tempfile_in(&dir)
         .or_input(|| path.display().to_string())?;
     tmp.write_all(contents)
@@ -137,6 +205,23 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), CliError> {
         .map_err(|e| e.error)
         .or_input(|| path.display().to_string())?;
     Ok(())
+}
+
+/// Gives `builder` the mode a new file (`dir == false`, 0666) or directory (0777) is
+/// created with before the user's umask applies, as the shell's would be; tempfile's own
+/// 0600/0700 would otherwise stay after the rename. Elsewhere than Unix, the platform's.
+fn umask_mode(builder: &mut tempfile::Builder<'_, '_>, dir: bool) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(if dir {
+            0o777
+        } else {
+            0o666
+        }));
+    }
+    #[cfg(not(unix))]
+    let _ = (builder, dir);
 }
 
 /// Streams samples into `trajectory.csv`: header `t,q1..qN,qd1..qdN` (s, rad, rad/s).

@@ -191,8 +191,12 @@ pub fn outputs_of<const N: usize, const K: usize>(
 pub fn read_record(path: &Path) -> Result<Record, CliError> {
     let text = std::fs::read_to_string(path)
         .or_input(|| format!("{}: cannot read record", path.display()))?;
-    let rec: Record =
-        serde_json::from_str(&text).or_input(|| format!("{}: not a record", path.display()))?;
+    let rec: Record = serde_json::from_str(&text).or_input(|| {
+        format!(
+            "{}: not a certification record (the JSON that host-sim record writes)",
+            path.display()
+        )
+    })?;
     if rec.format != FORMAT {
         return Err(CliError::input(format!(
             "{}: format {:?}, this host-sim reads {FORMAT:?}",

@@ -323,20 +323,16 @@ pub fn load(path: &Path) -> Result<LoadedTask, CliError> {
         ))
     })?;
     let chain = urdf::parse(&urdf_text, file.robot.ee_link.as_deref()).map_err(urdf_err)?;
-    let d = file.check.max_base_disturbance_deg;
-    if !(d.is_finite() && d > 0.0) {
-        return Err(CliError::input(format!(
-            "{shown}: [check] max_base_disturbance_deg = {d} must be a finite number > 0"
-        )));
-    }
-    Ok(LoadedTask {
+    let lt = LoadedTask {
         path: path.to_path_buf(),
         text,
         urdf_text,
         file,
         chain,
         urdf_path,
-    })
+    };
+    lt.sanity()?;
+    Ok(lt)
 }
 
 /// Parses a task from its text, with the URDF given as text (for replays and checks of
@@ -346,15 +342,25 @@ pub fn from_texts(origin: &Path, text: &str, urdf_text: &str) -> Result<LoadedTa
     let file: TaskFile = toml::from_str(text).map_err(|e| toml_error(&shown, &e))?;
     let chain = urdf::parse(urdf_text, file.robot.ee_link.as_deref())
         .map_err(|m| CliError::input(format!("{shown}: robot: {m}")))?;
-    Ok(LoadedTask {
+    let lt = LoadedTask {
         path: origin.to_path_buf(),
         text: text.to_string(),
         urdf_text: urdf_text.to_string(),
         urdf_path: origin.with_file_name(&file.robot.urdf),
         file,
         chain,
-    })
+    };
+    lt.sanity()?;
+    Ok(lt)
 }
+
+/// Fewest integration steps a task's path may have (`[motion] tf_s / dt_s`): the Euler path
+/// leaves the reaction null space by about 0.073°·dt/s of base rotation (spec §8), so a
+/// coarser grid cannot give a reactionless plan, and a search on it only burns its budget.
+pub const MIN_STEPS: u32 = 100;
+
+/// The reach bound's margin over the sum of link lengths and the base's drift.
+const REACH_MARGIN: f64 = 1.1;
 
 /// File names of a self-contained task bundle in an output directory.
 pub const BUNDLE_TASK: &str = "task.toml";
@@ -424,29 +430,116 @@ impl LoadedTask {
         &self,
         accel_deg_s2: Option<f64>,
     ) -> Result<Option<[f64; N]>, CliError> {
+        let Some(values) = self.qdd_values(accel_deg_s2, N)? else {
+            return Ok(None);
+        };
+        let mut out = [0.0; N];
+        for (o, v) in out.iter_mut().zip(&values) {
+            *o = *v;
+        }
+        Ok(Some(out))
+    }
+
+    /// [`LoadedTask::qdd_max_deg`] for `n` joints.
+    fn qdd_values(
+        &self,
+        accel_deg_s2: Option<f64>,
+        n: usize,
+    ) -> Result<Option<Vec<f64>>, CliError> {
         let key = "[limits] qdd_max_deg_s2";
         let values: Vec<f64> = match (accel_deg_s2, &self.file.limits.qdd_max_deg_s2) {
-            (Some(a), _) => vec![a; N],
-            (None, Some(PerJoint::One(a))) => vec![*a; N],
+            (Some(a), _) => vec![a; n],
+            (None, Some(PerJoint::One(a))) => vec![*a; n],
             (None, Some(PerJoint::Each(v))) => {
-                self.length(key, v, N)?;
+                self.length(key, v, n)?;
                 v.clone()
             }
             (None, None) => return Ok(None),
         };
-        let mut out = [0.0; N];
-        for (i, (o, v)) in out.iter_mut().zip(&values).enumerate() {
+        for (i, v) in values.iter().enumerate() {
             if !(v.is_finite() && *v > 0.0) {
-                let what = if accel_deg_s2.is_some() {
-                    "--accel-deg-s2".to_string()
-                } else {
-                    format!("{key}[{i}]")
+                let what = match (accel_deg_s2, &self.file.limits.qdd_max_deg_s2) {
+                    (Some(_), _) => "--accel-deg-s2".to_string(),
+                    (None, Some(PerJoint::One(_))) => key.to_string(),
+                    (None, _) => format!("{key}[{i}]"),
                 };
                 return Err(self.err(format!("{what} = {v} must be a finite number > 0")));
             }
-            *o = *v;
         }
-        Ok(Some(out))
+        Ok(Some(values))
+    }
+
+    /// Every value of the task file checked before any search, whether or not this run
+    /// uses it: the motion grid and its fewest steps ([`MIN_STEPS`]), `[check]`, `[limits]`,
+    /// `[retime]`, `[dispersion]`, the goal and its tolerances, and a target within the
+    /// arm's reach ([`LoadedTask::reach_m`]). Each error names the key and the reason.
+    fn sanity(&self) -> Result<(), CliError> {
+        let d = self.file.check.max_base_disturbance_deg;
+        if !(d.is_finite() && d > 0.0) {
+            return Err(self.err(format!(
+                "[check] max_base_disturbance_deg = {d} must be a finite number > 0"
+            )));
+        }
+        let m = &self.file.motion;
+        let motion = self.motion()?;
+        if motion.steps() < MIN_STEPS {
+            return Err(self.err(format!(
+                "[motion] dt_s = {} gives tf_s / dt_s = {} steps; a reactionless path needs at least {MIN_STEPS} (dt_s <= {} s; dt_s is in seconds)",
+                m.dt_s,
+                motion.steps(),
+                m.tf_s / f64::from(MIN_STEPS)
+            )));
+        }
+        self.qdd_values(None, self.chain.dof())?;
+        let rt = &self.file.retime;
+        if rt.grid < reactionless::retime::MIN_GRID {
+            return Err(self.err(format!(
+                "[retime] grid = {} must be at least {}",
+                rt.grid,
+                reactionless::retime::MIN_GRID
+            )));
+        }
+        if !(rt.margin.is_finite() && rt.margin > 0.0 && rt.margin <= 1.0) {
+            return Err(self.err(format!(
+                "[retime] margin = {} must lie in (0, 1]",
+                rt.margin
+            )));
+        }
+        self.file
+            .dispersion
+            .validate(|key| format!("{}: [dispersion] {key}", self.path.display()))?;
+        self.asked(&self.file.planner, false)?;
+        let t = &self.file.target.position_m;
+        if t.len() == 3 && t.iter().all(|v| v.is_finite()) {
+            let distance = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let reach = self.reach_m();
+            if reach.is_finite() && distance > reach {
+                return Err(self.err(format!(
+                    "[target] position_m = {t:?} is {distance:.3} m from the base; the arm reaches at most {reach:.3} m (its link lengths, the base's drift and a 10 % margin): out of reach"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The farthest the end effector can be from the base frame's origin at `t = 0` (m): the
+    /// first joint's offset plus every later joint's and the end effector's (the sum of link
+    /// lengths) plus the largest link CoM offset, `R`; the base drifts by at most
+    /// `2R·m_arm/m_total` (the CoM stays put); times a 10 % margin.
+    pub fn reach_m(&self) -> f64 {
+        let norm = |v: &[f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let c = &self.chain;
+        let links: f64 =
+            c.joints.iter().map(|j| norm(&j.origin.xyz)).sum::<f64>() + norm(&c.end_effector.xyz);
+        let com = c
+            .links
+            .iter()
+            .map(|l| norm(&l.inertial.xyz))
+            .fold(0.0, f64::max);
+        let r = links + com;
+        let arm: f64 = c.links.iter().map(|l| l.mass).sum();
+        let total = arm + c.base.mass;
+        r * (1.0 + 2.0 * arm / total) * REACH_MARGIN
     }
 
     /// `[check] max_base_disturbance_deg`.

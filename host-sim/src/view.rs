@@ -22,7 +22,7 @@
 
 use crate::artifacts::{Summary, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
-use crate::output::{read_trajectory_csv, write_atomic};
+use crate::output::{FileKind, read_trajectory_csv, write_file};
 use crate::taskfile::LoadedTask;
 use crate::version::Build;
 use crate::with_dims;
@@ -288,7 +288,7 @@ pub fn render_dir(dir: &Path, shown: &Path) -> Result<String, CliError> {
 /// Writes the page of output directory `dir` to `out` (atomically).
 pub fn write_dir(dir: &Path, out: &Path) -> Result<(), CliError> {
     let html = render_dir(dir, dir)?;
-    write_atomic(out, html.as_bytes())
+    write_file(out, html.as_bytes(), FileKind::Page)
 }
 
 #[cfg(test)]

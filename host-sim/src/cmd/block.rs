@@ -9,7 +9,7 @@
 use crate::args::PlanArgs;
 use crate::error::CliError;
 use crate::flight::task_block;
-use crate::output::write_atomic;
+use crate::output::{FileKind, write_file};
 use crate::taskfile;
 use std::path::PathBuf;
 
@@ -31,7 +31,7 @@ impl Args {
     pub fn run(self) -> Result<(), CliError> {
         let lt = taskfile::load(&self.task)?;
         let block = task_block(&lt, &self.planning.overrides())?;
-        write_atomic(&self.out, &block)?;
+        write_file(&self.out, &block, FileKind::Block)?;
         eprintln!(
             "block: {} bytes ({}) -> {}",
             block.len(),

@@ -66,7 +66,7 @@ pub struct Args {
     #[command(flatten)]
     goal: GoalArgs,
     /// Worker threads (default: one per core).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_usize)]
     jobs: Option<usize>,
     /// Run only the I-th of M deterministic slices of the (task, strategy, seed) list
     /// (1-based); `host-sim merge` puts the shards back together.

@@ -1,8 +1,6 @@
 //! `host-sim completions SHELL`: shell completions from the clap definitions, on stdout.
 
-use crate::cli::Cli;
 use crate::error::CliError;
-use clap::CommandFactory;
 use clap_complete::Shell;
 
 /// Print shell completions (bash, zsh, fish, elvish, powershell) to stdout, e.g.
@@ -16,7 +14,7 @@ pub struct Args {
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        let mut cmd = Cli::command();
+        let mut cmd = crate::cli::command();
         clap_complete::generate(self.shell, &mut cmd, "host-sim", &mut std::io::stdout());
         Ok(())
     }

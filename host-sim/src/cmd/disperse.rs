@@ -15,7 +15,7 @@ use crate::dispersion::{self, Draw, Figures, JointPath, Settings};
 use crate::dispersion_report::{self as report, DirSummary, Report, Row, Statistics};
 use crate::drive;
 use crate::error::{CliError, Context};
-use crate::output::{OutDir, write_atomic};
+use crate::output::{FileKind, OutDir, write_file};
 use crate::shards::{self, Manifest, Shard, parse_shard};
 use crate::taskfile::{DispersionKey, LoadedTask};
 use crate::urdf;
@@ -33,25 +33,27 @@ pub struct Args {
     /// Output directory of `plan`, `rollout` or `retime`.
     dir: PathBuf,
     /// Samples of the run (required unless --export-sample).
-    #[arg(long, required_unless_present = "export_sample")]
+    #[arg(long, required_unless_present = "export_sample", value_parser = crate::args::parse_usize)]
     samples: Option<usize>,
     /// Seed of the draws.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_seed)]
     seed: u64,
     /// The `[dispersion]` keys as flags, each replacing its key when given.
     #[command(flatten)]
     dispersion: DispersionFlags,
     /// Worker threads (default: one per core).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_usize)]
     jobs: Option<usize>,
-    /// Run only the I-th of M deterministic slices of the samples (1-based).
+    /// Run only the I-th of M deterministic slices of the samples, I from 1 to M (as a Slurm
+    /// array index); `host-sim merge` puts them back together.
     #[arg(long, value_parser = parse_shard, value_name = "I/M", conflicts_with = "export_sample")]
     shard: Option<Shard>,
     /// Also write CDF figures of the figures (PNG and SVG).
     #[arg(long, conflicts_with = "export_sample")]
     plots: bool,
-    /// Write sample K's (0-based) dispersed robot as URDF to --out instead.
-    #[arg(long, value_name = "K")]
+    /// Write sample K's dispersed robot as URDF to --out instead; K as in runs.csv's
+    /// `sample` column, 0 for the first sample.
+    #[arg(long, value_name = "K", value_parser = crate::args::parse_u64)]
     export_sample: Option<u64>,
     /// Output directory (replaced atomically), or the URDF file with --export-sample.
     #[arg(long)]
@@ -87,6 +89,16 @@ impl Args {
             );
         }
         let samples = self.samples.unwrap_or(0);
+        let spread = settings
+            .entries()
+            .iter()
+            .any(|(key, v)| *key != "truncation_sigmas" && *v > 0.0);
+        if !spread {
+            return Err(CliError::input(format!(
+                "every dispersion is 0 (no flag such as --mass-rel-sigma, no [dispersion] table in {}): the {samples} samples would all be the nominal robot",
+                lt.path.display()
+            )));
+        }
         if samples == 0 || samples > MAX_SAMPLES {
             return Err(CliError::input(format!(
                 "--samples {samples}: must be in 1..={MAX_SAMPLES}"
@@ -198,7 +210,11 @@ fn export<const N: usize, const K: usize>(
     dispersed.chain = draw.apply(&lt.chain);
     // The dispersed robot must be a valid model before anyone re-checks it.
     dispersed.task::<N, K>()?;
-    write_atomic(out, urdf::write(&dispersed.chain).as_bytes())?;
+    write_file(
+        out,
+        urdf::write(&dispersed.chain).as_bytes(),
+        FileKind::Urdf,
+    )?;
     let w = draw.base_rate.map(f64::to_degrees);
     eprintln!(
         "disperse: sample {sample} of seed {seed} -> {} (initial base rate {:?} deg/s, not in the URDF)",

@@ -47,7 +47,7 @@ pub struct Args {
     /// Task file (TOML).
     task: PathBuf,
     /// Integration steps per frame (default: the task's `[planner] frame_budget`).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_u32)]
     frame_budget: Option<u32>,
     /// Print one JSON object.
     #[arg(long)]

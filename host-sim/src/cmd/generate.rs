@@ -31,10 +31,10 @@ pub struct Args {
     #[arg(long, alias = "start-deg", allow_hyphen_values = true, value_parser = parse_list)]
     q_deg: List,
     /// Number of tasks.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_u32)]
     count: u32,
     /// Seed of the stream that draws η.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_seed)]
     seed: u64,
     /// Output directory (replaced atomically).
     #[arg(long)]

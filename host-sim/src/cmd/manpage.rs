@@ -1,10 +1,8 @@
 //! `host-sim manpage --out DIR`: man pages from the clap definitions (`host-sim.1` and one
 //! `host-sim-SUBCOMMAND.1` per subcommand), written atomically.
 
-use crate::cli::Cli;
 use crate::error::{CliError, Context};
 use crate::output::OutDir;
-use clap::CommandFactory;
 use std::path::PathBuf;
 
 /// Write man pages (roff) for host-sim and every subcommand into DIR.
@@ -27,7 +25,7 @@ impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
         let dir = OutDir::create(&self.out)?;
-        let top = Cli::command();
+        let top = crate::cli::command();
         dir.write("host-sim.1", &render(top.clone())?)?;
         let mut written = 1;
         for sub in top.get_subcommands() {

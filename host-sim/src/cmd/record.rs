@@ -6,7 +6,7 @@
 
 use crate::args::PlanArgs;
 use crate::error::{CliError, Context};
-use crate::output::write_atomic;
+use crate::output::{FileKind, write_file};
 use crate::records::{FORMAT, Record, outputs_of, relative_text, sha256_hex};
 use crate::taskfile;
 use crate::version::Build;
@@ -63,7 +63,7 @@ fn record(task_path: &Path, out: &Path, planning: &PlanArgs) -> Result<(), CliEr
     };
     let mut text = serde_json::to_string_pretty(&rec).or_internal(|| "record JSON")?;
     text.push('\n');
-    write_atomic(out, text.as_bytes())?;
+    write_file(out, text.as_bytes(), FileKind::Record)?;
     eprintln!(
         "record: {} after {} iterations, {} rollouts, digest {} -> {}",
         rec.outputs.status,

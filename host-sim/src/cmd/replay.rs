@@ -7,7 +7,7 @@
 //! exit code.
 
 use crate::error::{CliError, Context};
-use crate::records::{first_difference, outputs_of, read_record, sha256_hex};
+use crate::records::{Record, first_difference, outputs_of, read_record, sha256_hex};
 use crate::taskfile::{self, Overrides};
 use crate::version::Build;
 use crate::with_dims;
@@ -25,9 +25,16 @@ pub struct Args {
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
+        // Every file is read first: one that is not a record is bad input (exit 2), named
+        // alone, and nothing is replayed.
+        let records = self
+            .records
+            .iter()
+            .map(|r| read_record(r).map(|rec| (r, rec)))
+            .collect::<Result<Vec<_>, _>>()?;
         let mut failed: Vec<CliError> = Vec::new();
-        for r in &self.records {
-            if let Err(e) = replay(r) {
+        for (path, rec) in &records {
+            if let Err(e) = replay(path, rec) {
                 eprintln!("error: {e}");
                 failed.push(e);
             }
@@ -39,16 +46,15 @@ impl Args {
                 message: format!(
                     "{} of {} records did not replay identically",
                     failed.len(),
-                    self.records.len()
+                    records.len()
                 ),
             }),
         }
     }
 }
 
-/// Replays one record.
-pub fn replay(path: &Path) -> Result<(), CliError> {
-    let rec = read_record(path)?;
+/// Replays one record, read from `path`.
+pub fn replay(path: &Path, rec: &Record) -> Result<(), CliError> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),

@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long)]
     accel_deg_s2: Option<f64>,
     /// Arc-length grid points; default: the task's `[retime] grid` (2000).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::args::parse_u32)]
     grid: Option<u32>,
     /// Also write figures of the rates and accelerations against their limits.
     #[arg(long)]

@@ -444,7 +444,7 @@ pub struct Args {
     #[arg(long)]
     no_build: bool,
     /// Give up on the emulation after this many seconds.
-    #[arg(long, default_value_t = 1800)]
+    #[arg(long, default_value_t = 1800, value_parser = crate::args::parse_u64)]
     timeout_s: u64,
     /// Also re-time the finished plan to minimum time on the target and stream its
     /// setpoints, under `[limits] qdd_max_deg_s2` or `--accel-deg-s2` and `[retime]`
@@ -456,7 +456,7 @@ pub struct Args {
     accel_deg_s2: Option<f64>,
     /// Arc-length grid points for `--retime` (at most 3,000); default: the task's
     /// `[retime] grid` (2000).
-    #[arg(long, requires = "retime")]
+    #[arg(long, requires = "retime", value_parser = crate::args::parse_u32)]
     grid: Option<u32>,
     #[command(flatten)]
     planning: PlanArgs,

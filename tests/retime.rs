@@ -186,3 +186,109 @@ proptest! {
         prop_assert!(rq2 <= TOL && ra2 <= TOL);
     }
 }
+
+/// Spec §11's limits on what is written: the largest `|q(τ+1) − q(τ)|/dt` and
+/// `|q(τ+1) − 2q(τ) + q(τ−1)|/dt²` over their limits, computed here from the written q
+/// alone, independently of `retime::WrittenCheck`.
+fn written_ratios<const N: usize>(qs: &[[f64; N]], dt: f64, limits: &Limits<N>) -> (f64, f64) {
+    let (mut rv, mut ra) = (0.0f64, 0.0f64);
+    for w in qs.windows(2) {
+        for (j, v) in limits.qd_max().iter().enumerate() {
+            rv = rv.max((w[1][j] - w[0][j]).abs() / dt / v);
+        }
+    }
+    for w in qs.windows(3) {
+        for (j, a) in limits.qdd_max().iter().enumerate() {
+            ra = ra.max((w[2][j] - 2.0 * w[1][j] + w[0][j]).abs() / (dt * dt) / a);
+        }
+    }
+    (rv, ra)
+}
+
+/// The reference plan at 0.5 … 10 °/s²: what is written keeps every limit by spec §11's
+/// definition, and the motion is as long as the continuous optimum (no tightening was
+/// needed), within 1 % in any case.
+/// Verifies RL-RETIME-006.
+#[test]
+fn the_reference_plan_writes_within_its_limits_at_no_cost() {
+    let task = reference::paper_task().unwrap();
+    let qd = task.robot().desc().joints.map(|j| j.velocity);
+    for accel in [0.5, 1.0, 2.0, 5.0, 10.0] {
+        let mut grid = vec![GridPoint::<7>::ZERO; retime::DEFAULT_GRID as usize];
+        let path =
+            retime::path_of_rollout(&task, &reference::ETA_HAT, &mut grid, retime::DEFAULT_GRID)
+                .unwrap();
+        let limits = Limits::new(qd, [f64::to_radians(accel); 7], 1.0).unwrap();
+        let continuous = retime::solve(&mut grid, &path, &limits).unwrap().duration();
+        let (profile, w) = retime::solve_written(&mut grid, &path, &limits, 0.01).unwrap();
+        println!(
+            "{accel} deg/s^2: {:.4} s (continuous {continuous:.4} s), written rate {:.5}, acceleration {:.6}",
+            profile.duration(),
+            w.rate,
+            w.accel
+        );
+        assert!(w.within(), "{w:?}");
+        assert!(profile.duration() <= continuous * 1.01);
+    }
+}
+
+proptest! {
+    #![proptest_config(config(24))]
+
+    /// Random plans (any η of the reference task, its rollout as the path) under random
+    /// acceleration limits, margins and grids: the setpoints `solve_written` streams keep
+    /// every rate and acceleration limit on the written q by spec §11's definition,
+    /// exactly (≤ 1, not within a tolerance), and the ratios it reports are those.
+    /// Verifies RL-RETIME-006.
+    #[test]
+    fn written_samples_keep_the_limits(
+        eta in prop::array::uniform8(-1.0f64..1.0),
+        accel_deg in 0.3f64..20.0,
+        margin in 0.5f64..1.0,
+        m in 300u32..2500,
+    ) {
+        let task = reference::paper_task().unwrap();
+        let eta = [[eta[0], eta[1]], [eta[2], eta[3]], [eta[4], eta[5]], [eta[6], eta[7]]];
+        prop_assume!(eta.iter().flatten().any(|v| v.abs() > 1e-3));
+        let mut grid = vec![GridPoint::<7>::ZERO; m as usize];
+        let path = retime::path_of_rollout(&task, &eta, &mut grid, m).unwrap();
+        let qd = task.robot().desc().joints.map(|j| j.velocity);
+        let limits = Limits::new(qd, [accel_deg.to_radians(); 7], margin).unwrap();
+        let (profile, measured) = retime::solve_written(&mut grid, &path, &limits, 0.01).unwrap();
+        let mut stream = Stream::new(&profile, 0.01).unwrap();
+        let mut qs = Vec::new();
+        while let Some(sp) = stream.next(&grid) {
+            qs.push(sp.q);
+        }
+        let (rv, ra) = written_ratios(&qs, 0.01, &limits);
+        prop_assert!(rv <= 1.0, "rate ratio {}", rv);
+        prop_assert!(ra <= 1.0, "acceleration ratio {}", ra);
+        prop_assert_eq!((rv, ra), (measured.rate, measured.accel));
+    }
+
+    /// The same on random smooth 4-joint paths under random rate and acceleration limits.
+    /// Verifies RL-RETIME-006.
+    #[test]
+    fn written_samples_keep_the_limits_on_random_paths(
+        c in prop::array::uniform9(-1.5f64..1.5),
+        qd in prop::array::uniform4(0.05f64..2.0),
+        qdd in prop::array::uniform4(0.02f64..5.0),
+    ) {
+        let samples = random_path(&c, 400);
+        let mut grid = vec![GridPoint::<4>::ZERO; 800];
+        let mut arc = ArcLength::new();
+        samples.iter().for_each(|q| arc.push(q));
+        let mut b = PathBuilder::new(&mut grid, 800, arc.length()).unwrap();
+        samples.iter().for_each(|q| b.push(q));
+        let path = b.finish().unwrap();
+        let limits = Limits::new(qd, qdd, 1.0).unwrap();
+        let (profile, _) = retime::solve_written(&mut grid, &path, &limits, 0.01).unwrap();
+        let mut stream = Stream::new(&profile, 0.01).unwrap();
+        let mut qs = Vec::new();
+        while let Some(sp) = stream.next(&grid) {
+            qs.push(sp.q);
+        }
+        let (rv, ra) = written_ratios(&qs, 0.01, &limits);
+        prop_assert!(rv <= 1.0 && ra <= 1.0, "rate {} acceleration {}", rv, ra);
+    }
+}

@@ -11,28 +11,36 @@
 //! length `s ∈ [0, L]`, never by `t`: the rate vanishes at both rest ends, the arc-length
 //! tangent does not. `M` grid points `s_i = i·Δ`, `Δ = L/(M−1)`, hold `q(s_i)`; `q'` at a
 //! grid point is a second-order finite difference of the neighbouring points (one-sided at
-//! the ends) and `q''` is constant over each segment, `(q'_{i+1} − q'_i)/Δ`. Feeding the
-//! samples needs two passes (the first, [`ArcLength`], measures `L`); a rollout is
-//! deterministic, so the planner re-runs it from `(q₀, η)`.
+//! the ends). Between two grid points the path written is the cubic Hermite through both
+//! with those tangents: C¹ in `s`, so no velocity jump at a grid point that a written
+//! second difference could see whole (joining the grid points by chords did: up to 7× the
+//! limit on slow paths). Feeding the samples needs two passes (the first, [`ArcLength`],
+//! measures `L`); a rollout is deterministic, so the planner re-runs it from `(q₀, η)`.
 //!
-//! **Solve** (TOPP-RA, Pham & Pham 2018, on `x = ṡ²`, `u = s̈`, `x_{i+1} = x_i + 2Δu_i`).
-//! Segment `i` (constant `u_i`) is constrained at both of its ends:
+//! **Solve** (TOPP-RA, Pham & Pham 2018, on `x = ṡ²`, `u = s̈`, `x_{i+1} = x_i + 2Δu_i`),
+//! on the model `q'` linear in `s` within a segment and `q''` constant over it,
+//! `(q'_{i+1} − q'_i)/Δ`. Segment `i` (constant `u_i`) is constrained at both of its ends:
 //! `|q'_j u + q''_j ṡ²| ≤ q̈max_j` at `s_i` and at `s_{i+1}`, and `x_i ≤ (q̇max_j/|q'_j|)²`
-//! with the largest `|q'_j|` of the point and its neighbours. Within a segment `q'` and `ṡ²`
-//! are linear in `s`, so both `q̇_j²` and `q̈_j` stay within their end values: the limits
-//! hold at every setpoint, not only at grid points. A backward pass computes the upper end
-//! of each controllable set `K_i = [0, x̄_i]` (`x̄_{M−1} = 0`, rest at the end) by
-//! eliminating `u` in closed form (every lower bound of `u` below every upper bound: exact
-//! for this 2-D LP; the pair condition is concave piecewise linear in `x`, its root found
-//! by Newton steps on the active pair, at most one per pair, typically one or two of O(N)
-//! each); a greedy forward pass from `x_0 = 0` takes the largest admissible `u_i` that
-//! keeps `x_{i+1} ∈ K_{i+1}`. Work O(M·N) in practice, bounded by O(M·N³), no LP solver. Each segment lasts `2Δ/(√x_i + √x_{i+1})`.
+//! with the largest `|q'_j|` of the point and its neighbours. Within a segment `q'` and
+//! `ṡ²` are linear in `s`, so both `q̇_j²` and `q̈_j` of the model stay within their end
+//! values. A backward pass computes the upper end of each controllable set `K_i = [0,
+//! x̄_i]` (`x̄_{M−1} = 0`, rest at the end) by eliminating `u` in closed form (every lower
+//! bound of `u` below every upper bound: exact for this 2-D LP; the pair condition is
+//! concave piecewise linear in `x`, its root found by Newton steps on the active pair, at
+//! most one per pair, typically one or two of O(N) each); a greedy forward pass from
+//! `x_0 = 0` takes the largest admissible `u_i` that keeps `x_{i+1} ∈ K_{i+1}`. Work
+//! O(M·N) in practice, bounded by O(M·N³), no LP solver. Each segment lasts
+//! `2Δ/(√x_i + √x_{i+1})`.
+//!
+//! **What is written keeps the limits** (spec §11: first and second differences of the
+//! written `q` over `dt` and `dt²`): [`solve_written`] measures a solution's stream with
+//! [`WrittenCheck`] and tightens the limits until it does.
 //!
 //! **Stream.** The optimal duration `T*` is rounded up to a whole step, `T = K·dt`, by a
 //! uniform time scale `r = T*/T ≤ 1` (rates scale by `r`, accelerations by `r²`, so no
 //! limit can be exceeded by the rounding). Sample `k` lies at `τ = k·dt·r` of the optimal
-//! profile; within its segment `ṡ = √x_i + u τ`, `q` and `q'` are interpolated linearly in
-//! `s`, `q̇ = q' ṡ r`, `q̈ = (q' u + q'' ṡ²) r²`. The first sample is `q_0`, the
+//! profile; within its segment `ṡ = √x_i + u τ`, `q` is the Hermite's at `s`, `q'` is
+//! interpolated linearly in `s`, `q̇ = q' ṡ r`, `q̈ = (q' u + q'' ṡ²) r²` (the model's). The first sample is `q_0`, the
 //! last is exactly the last path sample, both with `q̇ = 0`. The stream carries O(1) state
 //! (the segment index and its start time) and walks the grid once.
 //!
@@ -402,16 +410,6 @@ fn derivatives<const N: usize>(grid: &[GridPoint<N>], path: &Path, i: u32) -> [f
     d1
 }
 
-/// `q''` of segment `i → i+1`, constant over it: `(q'_{i+1} − q'_i)/Δ`, so that `q'` is
-/// linear in `s` within the segment and consistent with it.
-fn curvature<const N: usize>(at: &[f64; N], next: &[f64; N], ds: f64) -> [f64; N] {
-    let mut w = [0.0; N];
-    for ((o, a), b) in w.iter_mut().zip(at).zip(next) {
-        *o = (b - a) / ds;
-    }
-    w
-}
-
 /// One acceleration constraint of a segment, `|P u + W x| ≤ A` in `(u, x) = (s̈_i, ṡ_i²)`.
 #[derive(Debug, Clone, Copy)]
 struct Row {
@@ -420,11 +418,12 @@ struct Row {
     a: f64,
 }
 
-/// The `2N` rows of segment `i → i+1` with `q''` constant over it (`W = q''_j`): joint `j`
-/// at `s_i` (`P = q'_j(s_i)`) and at `s_{i+1}` with the same `u` (`x_{i+1} = x + 2Δu`:
-/// `P = q'_j(s_{i+1}) + 2Δ q''_j`). Within the segment `q̈_j = q'_j(s) u + q''_j ṡ²(s)` is
-/// linear in `s` (both `q'` and `ṡ² = x + 2u(s − s_i)` are), so bounding it at both ends
-/// bounds it at every setpoint inside.
+/// The `2N` rows of segment `i → i+1` with `q''` constant over it (`W = (q'_{i+1} −
+/// q'_i)/Δ`): joint `j` at `s_i` (`P = q'_j(s_i)`) and at `s_{i+1}` with the same `u`
+/// (`x_{i+1} = x + 2Δu`: `P = q'_j(s_{i+1}) + 2ΔW`). Within the segment `q̈_j = q'_j(s) u +
+/// q''_j ṡ²(s)` is linear in `s` (both `q'` and `ṡ² = x + 2u(s − s_i)` are), so bounding it
+/// at both ends bounds this model at every setpoint inside; what is written (the Hermite
+/// of [`Stream`]) differs from it slightly, and [`solve_written`] closes that gap.
 fn rows<const N: usize>(
     at: &[f64; N],
     next: &[f64; N],
@@ -436,12 +435,12 @@ fn rows<const N: usize>(
         w: 0.0,
         a: 1.0,
     };
-    let w = curvature(at, next, ds);
     let mut ra = [zero; N];
     let mut rb = [zero; N];
     for (j, (oa, ob)) in ra.iter_mut().zip(rb.iter_mut()).enumerate() {
         let a = limits.qdd_max.get(j).copied().unwrap_or(1.0);
-        if let (Some(&p), Some(&pn), Some(&w)) = (at.get(j), next.get(j), w.get(j)) {
+        if let (Some(&p), Some(&pn)) = (at.get(j), next.get(j)) {
+            let w = (pn - p) / ds;
             *oa = Row { p, w, a };
             *ob = Row {
                 p: pn + 2.0 * ds * w,
@@ -973,7 +972,6 @@ impl Stream {
         };
         let a1 = derivatives(grid, &path, i);
         let b1 = derivatives(grid, &path, i + 1);
-        let w = curvature(&a1, &b1, ds);
         let (ga, gb) = (grid.get(i as usize)?, grid.get((i + 1) as usize)?);
         let r = self.scale;
         let mut sp = Setpoint {
@@ -983,24 +981,29 @@ impl Stream {
             qd: [0.0; N],
             qdd: [0.0; N],
         };
+        // The position written is the cubic Hermite in s through both grid points with the
+        // tangents q' of the solve: C¹ in s, so no velocity jump at a grid point that a
+        // written second difference would see whole (chords between grid points gave up to
+        // 7× the limit on slow paths). The rate and acceleration carried are the solve's
+        // model: q' linear in s, q'' = (q'_{i+1} − q'_i)/Δ constant over the segment.
+        let x = sigma;
+        let (x2, x3) = (x * x, x * x * x);
+        let h = [
+            2.0 * x3 - 3.0 * x2 + 1.0,
+            x3 - 2.0 * x2 + x,
+            3.0 * x2 - 2.0 * x3,
+            x3 - x2,
+        ];
         for j in 0..N {
-            let lerp = |a: &[f64; N], b: &[f64; N]| {
-                let (a, b) = (
-                    a.get(j).copied().unwrap_or(0.0),
-                    b.get(j).copied().unwrap_or(0.0),
-                );
-                (1.0 - sigma) * a + sigma * b
-            };
-            let (q, p) = (lerp(&ga.q, &gb.q), lerp(&a1, &b1));
-            let w = w.get(j).copied().unwrap_or(0.0);
+            let at = |v: &[f64; N]| v.get(j).copied().unwrap_or(0.0);
+            let (qa, qb, pa, pb) = (at(&ga.q), at(&gb.q), at(&a1), at(&b1));
+            let q = h[0] * qa + h[1] * ds * pa + h[2] * qb + h[3] * ds * pb;
+            let p = (1.0 - sigma) * pa + sigma * pb;
+            let w = (pb - pa) / ds;
             if let (Some(oq), Some(od), Some(oa)) =
                 (sp.q.get_mut(j), sp.qd.get_mut(j), sp.qdd.get_mut(j))
             {
-                *oq = if last {
-                    gb.q.get(j).copied().unwrap_or(q)
-                } else {
-                    q
-                };
+                *oq = if last { qb } else { q };
                 *od = p * sdot * r;
                 *oa = (p * u + w * sdot * sdot) * (r * r);
             }

@@ -14,9 +14,9 @@
 //! 3. **Trial** rollout at `η + δ`: accepted if it keeps the joint limits (Φ = 0) and lowers
 //!    f (then `λ ← λ/10` and a new Jacobian), else rejected (`λ ← 10λ`, same Jacobian).
 //!
-//! It stops when `f ≤ tolerance`, after `max_rollouts` rollouts, or when λ exceeds 1e8 (no
-//! descent left at rounding level). Only improvements are accepted, so the result is never
-//! worse than the C-PSO result.
+//! It stops when `f ≤ tolerance`, after `max_rollouts` rollouts, or when λ exceeds 1e8 on a
+//! freshly differenced Jacobian (no descent left at rounding level). Only improvements are
+//! accepted, so the result is never worse than the C-PSO result.
 //!
 //! **Against the truth model** ([`Refiner::against_truth`]) the damping follows the
 //! multistart's schedule instead: on an accepted trial Nielsen's
@@ -28,7 +28,12 @@
 //! one ten times larger that shrinks `truth_f` by 1–1.5 % per step, and its floor of 1e-12
 //! damped the weakest direction to 0.2 % of its Gauss–Newton step (issue #28: set B chaser7
 //! tasks 006, 008, 009 ran out of the 1,000-rollout budget at 1e-8…6e-6 on every seed).
-//! Refinement against the planner model keeps the decade schedule (its records are pinned).
+//! The Jacobian is differenced (planner model) once and then corrected by Broyden's rank-1
+//! update with the truth-model error of every trial, accepted or not, so a step costs one
+//! rollout instead of `2K + 1`; it is differenced afresh after two consecutive rejections on
+//! a corrected Jacobian, or when λ passes 1e8 on one (then λ restarts at 1e-3). Both are the
+//! multistart's measured choices ([`crate::multistart`]). Refinement against the planner
+//! model keeps the decade schedule and a new Jacobian per step (its records are pinned).
 
 use crate::config::{RefineAgainst, RefineConfig};
 use crate::geometry::PoseError;
@@ -44,6 +49,9 @@ const LAMBDA_START: f64 = 1e-3;
 const LAMBDA_MAX: f64 = 1e8;
 /// Smallest damping.
 const LAMBDA_MIN: f64 = 1e-12;
+/// Against the truth model: consecutive rejected trials on a Broyden-corrected Jacobian
+/// before it is differenced afresh (the multistart's `rebuild_after`).
+const REBUILD_AFTER: u32 = 2;
 /// Smallest damping against the truth model (the multistart's floor): the weakest singular
 /// value of the 6 × 2K Jacobian is down to `σ²/μ ≈ 4e-15` (chaser7), and a floor above it
 /// leaves that direction only `σ²/(σ² + λμ)` of its Gauss–Newton step per iteration.
@@ -125,6 +133,10 @@ pub struct Refiner<const N: usize, const K: usize> {
     nu: f64,
     /// Against the truth: the decrease of `‖e‖²` the linear model predicts for the trial.
     pred: f64,
+    /// Against the truth: consecutive rejected trials.
+    rejects: u32,
+    /// Against the truth: the Jacobian carries Broyden corrections since it was differenced.
+    corrected: bool,
 }
 
 impl<const N: usize, const K: usize> Refiner<N, K> {
@@ -154,6 +166,8 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
             against: RefineAgainst::Planner,
             nu: 2.0,
             pred: 0.0,
+            rejects: 0,
+            corrected: false,
         }
     }
 
@@ -280,6 +294,8 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                 if c + 1 < 2 * K {
                     self.awaiting = Awaiting::Column(c + 1);
                 } else {
+                    self.corrected = false;
+                    self.rejects = 0;
                     self.plan_trial();
                 }
             }
@@ -301,7 +317,9 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                 {
                     let te = truth.map_or([0.0; 6], PoseError::to_array);
                     let f = truth.map_or(f64::INFINITY, PoseError::norm);
+                    self.broyden(&te);
                     self.nielsen_accept(f);
+                    self.rejects = 0;
                     self.eta = self.trial;
                     self.outcome = *o;
                     self.e = te;
@@ -310,14 +328,26 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     if f <= self.config.tolerance {
                         self.stop = Some(RefineStop::Reached);
                     } else {
-                        self.awaiting = Awaiting::Column(0);
+                        // The corrected Jacobian plans the next trial: no new differences.
+                        self.plan_trial();
                     }
                 }
                 (_, RefineAgainst::Truth) => {
+                    if let (Some(_), Some(te)) = (result, truth) {
+                        self.broyden(&te.to_array());
+                    }
                     self.lambda *= self.nu;
                     self.nu *= 2.0;
-                    if self.lambda > LAMBDA_MAX {
+                    self.rejects += 1;
+                    if self.lambda > LAMBDA_MAX && self.corrected {
+                        // No descent on a corrected Jacobian: difference it afresh first.
+                        self.lambda = LAMBDA_START;
+                        self.nu = 2.0;
+                        self.awaiting = Awaiting::Column(0);
+                    } else if self.lambda > LAMBDA_MAX {
                         self.stop = Some(RefineStop::Stalled);
+                    } else if self.corrected && self.rejects >= REBUILD_AFTER {
+                        self.awaiting = Awaiting::Column(0);
                     } else {
                         self.plan_trial();
                     }
@@ -354,6 +384,43 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
         let factor = (1.0 - t * t * t).max(1.0 / 3.0);
         self.lambda = (self.lambda * factor).max(TRUTH_LAMBDA_MIN);
         self.nu = 2.0;
+    }
+
+    /// Against the truth, after the trial's truth-model error `et`: Broyden's rank-1
+    /// correction `J ← J + (Δe − J s) sᵀ/(sᵀs)`, `s` = trial − η, `Δe = et − e`. The
+    /// difference columns are the planner model's; the correction makes J reproduce the
+    /// truth model's change along the step just taken, and the next trial costs one
+    /// rollout instead of `2K + 1` (the multistart's scheme).
+    fn broyden(&mut self, et: &[f64; 6]) {
+        let mut s = [[0.0; 2]; K];
+        for ((d, t), x) in s
+            .iter_mut()
+            .flatten()
+            .zip(self.trial.iter().flatten())
+            .zip(self.eta.iter().flatten())
+        {
+            *d = t - x;
+        }
+        let ss: f64 = s.iter().flatten().fold(0.0, |a, v| a + v * v);
+        // k = (Δe − J s)/(sᵀs).
+        let mut k = [0.0; 6];
+        for ((k, a), b) in k.iter_mut().zip(et.iter()).zip(self.e.iter()) {
+            *k = a - b;
+        }
+        for (col, sc) in self.jac.iter().flatten().zip(s.iter().flatten()) {
+            for (k, c) in k.iter_mut().zip(col.iter()) {
+                *k -= c * sc;
+            }
+        }
+        if !(ss > 0.0 && ss.is_finite() && k.iter().all(|v| v.is_finite())) {
+            return;
+        }
+        for (col, sc) in self.jac.iter_mut().flatten().zip(s.iter().flatten()) {
+            for (c, k) in col.iter_mut().zip(k.iter()) {
+                *c += k * sc / ss;
+            }
+        }
+        self.corrected = true;
     }
 
     /// Computes the trial point from the current Jacobian and λ.

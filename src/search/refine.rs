@@ -30,9 +30,10 @@
 //! tasks 006, 008, 009 ran out of the 1,000-rollout budget at 1e-8…6e-6 on every seed).
 //! The Jacobian is differenced (planner model) once and then corrected by Broyden's rank-1
 //! update with the truth-model error of every trial, accepted or not, so a step costs one
-//! rollout instead of `2K + 1`; it is differenced afresh after two consecutive rejections on
-//! a corrected Jacobian, or when λ passes 1e8 on one (then λ restarts at 1e-3). Both are the
-//! multistart's measured choices ([`crate::multistart`]). Refinement against the planner
+//! rollout instead of `2K + 1`; it is differenced afresh after two consecutive failed trials
+//! on a corrected Jacobian (rejected, or accepted with less than 0.1 of the predicted
+//! decrease: MINPACK `hybrd`'s rule), or when λ passes 1e8 on one (then λ restarts at 1e-3).
+//! Damping and Broyden scheme are the multistart's measured choices ([`crate::multistart`]). Refinement against the planner
 //! model keeps the decade schedule and a new Jacobian per step (its records are pinned).
 
 use crate::config::{RefineAgainst, RefineConfig};
@@ -49,9 +50,13 @@ const LAMBDA_START: f64 = 1e-3;
 const LAMBDA_MAX: f64 = 1e8;
 /// Smallest damping.
 const LAMBDA_MIN: f64 = 1e-12;
-/// Against the truth model: consecutive rejected trials on a Broyden-corrected Jacobian
+/// Against the truth model: consecutive failed trials on a Broyden-corrected Jacobian
 /// before it is differenced afresh (the multistart's `rebuild_after`).
 const REBUILD_AFTER: u32 = 2;
+/// Against the truth model: an accepted trial whose decrease of `‖e‖²` is below this
+/// fraction of the predicted one counts as failed too (MINPACK `hybrd`'s test before it
+/// re-differences a Broyden-updated Jacobian).
+const POOR_MODEL: f64 = 0.1;
 /// Smallest damping against the truth model (the multistart's floor): the weakest singular
 /// value of the 6 × 2K Jacobian is down to `σ²/μ ≈ 4e-15` (chaser7), and a floor above it
 /// leaves that direction only `σ²/(σ² + λμ)` of its Gauss–Newton step per iteration.
@@ -133,8 +138,9 @@ pub struct Refiner<const N: usize, const K: usize> {
     nu: f64,
     /// Against the truth: the decrease of `‖e‖²` the linear model predicts for the trial.
     pred: f64,
-    /// Against the truth: consecutive rejected trials.
-    rejects: u32,
+    /// Against the truth: consecutive failed trials (rejected, or accepted with a decrease
+    /// below [`POOR_MODEL`] of the predicted one).
+    failures: u32,
     /// Against the truth: the Jacobian carries Broyden corrections since it was differenced.
     corrected: bool,
 }
@@ -166,7 +172,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
             against: RefineAgainst::Planner,
             nu: 2.0,
             pred: 0.0,
-            rejects: 0,
+            failures: 0,
             corrected: false,
         }
     }
@@ -295,7 +301,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     self.awaiting = Awaiting::Column(c + 1);
                 } else {
                     self.corrected = false;
-                    self.rejects = 0;
+                    self.failures = 0;
                     self.plan_trial();
                 }
             }
@@ -318,8 +324,12 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     let te = truth.map_or([0.0; 6], PoseError::to_array);
                     let f = truth.map_or(f64::INFINITY, PoseError::norm);
                     self.broyden(&te);
-                    self.nielsen_accept(f);
-                    self.rejects = 0;
+                    let rho = self.nielsen_accept(f);
+                    self.failures = if rho < POOR_MODEL {
+                        self.failures + 1
+                    } else {
+                        0
+                    };
                     self.eta = self.trial;
                     self.outcome = *o;
                     self.e = te;
@@ -327,6 +337,10 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     self.iterations += 1;
                     if f <= self.config.tolerance {
                         self.stop = Some(RefineStop::Reached);
+                    } else if self.corrected && self.failures >= REBUILD_AFTER {
+                        // Accepted, but the corrected Jacobian no longer predicts the truth
+                        // (such steps crept at < 1 % each): difference it afresh.
+                        self.awaiting = Awaiting::Column(0);
                     } else {
                         // The corrected Jacobian plans the next trial: no new differences.
                         self.plan_trial();
@@ -338,7 +352,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                     }
                     self.lambda *= self.nu;
                     self.nu *= 2.0;
-                    self.rejects += 1;
+                    self.failures += 1;
                     if self.lambda > LAMBDA_MAX && self.corrected {
                         // No descent on a corrected Jacobian: difference it afresh first.
                         self.lambda = LAMBDA_START;
@@ -346,7 +360,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
                         self.awaiting = Awaiting::Column(0);
                     } else if self.lambda > LAMBDA_MAX {
                         self.stop = Some(RefineStop::Stalled);
-                    } else if self.corrected && self.rejects >= REBUILD_AFTER {
+                    } else if self.corrected && self.failures >= REBUILD_AFTER {
                         self.awaiting = Awaiting::Column(0);
                     } else {
                         self.plan_trial();
@@ -373,7 +387,8 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
     /// over the predicted decrease of `‖e‖²`. A good model (`ρ ≈ 1`) divides λ by 3, a
     /// poor one keeps it; λ then settles where trials are accepted instead of jumping by
     /// decades between an accepted, over-damped value and a rejected one.
-    fn nielsen_accept(&mut self, f: f64) {
+    /// Returns ρ.
+    fn nielsen_accept(&mut self, f: f64) -> f64 {
         let m = self.merit();
         let rho = if self.pred > 0.0 {
             (m * m - f * f) / self.pred
@@ -384,6 +399,7 @@ impl<const N: usize, const K: usize> Refiner<N, K> {
         let factor = (1.0 - t * t * t).max(1.0 / 3.0);
         self.lambda = (self.lambda * factor).max(TRUTH_LAMBDA_MIN);
         self.nu = 2.0;
+        rho
     }
 
     /// Against the truth, after the trial's truth-model error `et`: Broyden's rank-1

@@ -652,6 +652,33 @@ fn a_six_joint_arm_reports_its_floor() {
     assert!(p["rollouts"].as_u64().unwrap() < 1000, "{}", p["rollouts"]);
 }
 
+/// The refinement against the truth model reaches truth_f ≤ 1e-9 well within its budget on
+/// two set-B chaser7 targets where it used to spend its 1,000 rollouts and stop at 5e-6
+/// and 1e-8 (issue #28): task_006 (λ bounced by decades between a rejected value and an
+/// over-damped one) and task_009 (λ held at a floor far above the weakest σ²/μ), seed 1.
+/// Verifies RL-REF-006.
+#[test]
+fn truth_refinement_reaches_1e_9_on_thin_targets() {
+    let tmp = tempfile::tempdir().unwrap();
+    for task in ["task_006", "task_009"] {
+        let out = tmp.path().join(task);
+        let o = host_sim()
+            .arg("plan")
+            .arg(root().join(format!("tests/tasks/b/chaser7/{task}.toml")))
+            .args(["--seed", "1", "--refine-tolerance", "1e-9"])
+            .args(["--refine-against", "truth", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{task}: {err}");
+        let p = read_json(&out.join("plan.json"));
+        assert_eq!(p["refine"]["stop"], "reached", "{task}");
+        assert!(p["truth_f"].as_f64().unwrap() <= 1e-9, "{task}");
+        assert!(p["refine"]["rollouts"].as_u64().unwrap() <= 500, "{task}");
+    }
+}
+
 /// A plan whose budget is spent exits 1 after exactly `max_rollouts` rollouts.
 /// Verifies RL-PLAN-009.
 #[test]

@@ -22,10 +22,10 @@
 //! multistart's schedule instead: on an accepted trial Nielsen's
 //! `λ ← λ·max(1/3, 1 − (2ρ − 1)³)` (ρ = actual / predicted decrease of `‖e‖²`), `ν ← 2`; on
 //! a rejected one `λ ← λν`, `ν ← 2ν`; floor 1e-15. The truth-made targets sit in a thin
-//! reachable set (singular values of the 6 × 2K Jacobian spread over 1e7), and the truth
-//! solution is usually some distance along a curved valley from the planner-model point the
-//! search hands over. There the decade schedule bounced between a rejected λ and an accepted
-//! one ten times larger that shrinks `truth_f` by 1–1.5 % per step, and its floor of 1e-12
+//! reachable set (singular values of the 6 × 2K Jacobian spread over 6–8 decades), and the
+//! truth solution can lie some distance along a curved valley from the planner-model point
+//! the search hands over. There the decade schedule bounced between a rejected λ and an accepted
+//! one ten times larger that shrinks `truth_f` by 0.7–1.5 % per step, and its floor of 1e-12
 //! damped the weakest direction to 0.2 % of its Gauss–Newton step (issue #28: set B chaser7
 //! tasks 006, 008, 009 ran out of the 1,000-rollout budget at 1e-8…6e-6 on every seed).
 //! The Jacobian is differenced (planner model) once and then corrected by Broyden's rank-1
@@ -33,8 +33,9 @@
 //! rollout instead of `2K + 1`; it is differenced afresh after two consecutive failed trials
 //! on a corrected Jacobian (rejected, or accepted with less than 0.1 of the predicted
 //! decrease: MINPACK `hybrd`'s rule), or when λ passes 1e8 on one (then λ restarts at 1e-3).
-//! Damping and Broyden scheme are the multistart's measured choices ([`crate::multistart`]). Refinement against the planner
-//! model keeps the decade schedule and a new Jacobian per step (its records are pinned).
+//! Damping and Broyden scheme are the multistart's measured choices ([`crate::multistart`]).
+//! Refinement against the planner model keeps the decade schedule and a new Jacobian per
+//! step (its records are pinned).
 
 use crate::config::{RefineAgainst, RefineConfig};
 use crate::geometry::PoseError;
@@ -58,7 +59,7 @@ const REBUILD_AFTER: u32 = 2;
 /// re-differences a Broyden-updated Jacobian).
 const POOR_MODEL: f64 = 0.1;
 /// Smallest damping against the truth model (the multistart's floor): the weakest singular
-/// value of the 6 × 2K Jacobian is down to `σ²/μ ≈ 4e-15` (chaser7), and a floor above it
+/// value of the 6 × 2K Jacobian is down to `σ²/μ ≈ 2e-15` (chaser7), and a floor above it
 /// leaves that direction only `σ²/(σ² + λμ)` of its Gauss–Newton step per iteration.
 const TRUTH_LAMBDA_MIN: f64 = 1e-15;
 

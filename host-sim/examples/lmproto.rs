@@ -24,7 +24,7 @@ use host_sim::drive::{HOST_CAPACITY, HostPlanner};
 use host_sim::taskfile::{self, LoadedTask, Overrides};
 use host_sim::with_dims;
 use nalgebra::{SMatrix, SVector};
-use reactionless::planner::TRUTH_SUBSTEPS;
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::{Planner, RefineAgainst, Status, Task, TruthModel};
 
 type V6 = SVector<f64, 6>;
@@ -227,6 +227,7 @@ fn proto<const N: usize, const K: usize>(
         refine_tolerance: Some(1e-9),
         strategy: None,
         refine_against: Some(RefineAgainst::Truth),
+        paper: true,
     };
     let mut config = lt.planner(HOST_CAPACITY, &overrides)?;
     config.refine_max_rollouts = 1;

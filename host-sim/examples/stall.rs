@@ -35,7 +35,7 @@ use nalgebra::{SMatrix, SVector};
 
 type DVector<T> = SVector<T, 6>;
 type DMatrix<T> = SMatrix<T, 6, 18>;
-use reactionless::planner::TRUTH_SUBSTEPS;
+use reactionless::TRUTH_SUBSTEPS;
 use reactionless::{Event, Planner, RefineAgainst, Status, Task, TruthModel};
 
 fn generating_eta(text: &str) -> Vec<f64> {
@@ -128,6 +128,7 @@ fn diagnose<const N: usize, const K: usize>(
         refine_tolerance: Some(1e-9),
         strategy: None,
         refine_against: Some(RefineAgainst::Truth),
+        paper: true,
     };
     let config = lt.planner(HOST_CAPACITY, &overrides)?;
     let task = lt.task::<N, K>()?;

@@ -31,19 +31,56 @@ pub struct Row {
 /// How to read one figure from [`Figures`].
 pub type Getter = fn(&Figures) -> f64;
 
-/// The figures' columns, in order, with how to read them from [`Figures`].
-pub const FIGURES: [(&str, Getter); 5] = [
-    ("base_disturbance_deg", |f| f.base_disturbance_deg),
-    ("final_attitude_error_deg", |f| f.final_attitude_error_deg),
-    ("position_error_m", |f| f.position_error_m),
-    ("orientation_error_deg", |f| f.orientation_error_deg),
-    ("f", |f| f.f),
+/// One figure of a dispersion: its column, what it is for a reader, and how to read it.
+pub struct FigureColumn {
+    /// The column of `runs.csv` and the field of [`Statistics`] (unit included).
+    pub name: &'static str,
+    /// What it is, for a reader (the tables of `summary.md`, the CDFs' titles).
+    pub title: &'static str,
+    /// Its unit.
+    pub unit: &'static str,
+    /// Its value in [`Figures`].
+    pub get: Getter,
+}
+
+/// The figures' columns, in order.
+pub const FIGURES: [FigureColumn; 5] = [
+    FigureColumn {
+        name: "base_disturbance_deg",
+        title: "Base disturbance",
+        unit: "deg",
+        get: |f| f.base_disturbance_deg,
+    },
+    FigureColumn {
+        name: "final_attitude_error_deg",
+        title: "Final base attitude error",
+        unit: "deg",
+        get: |f| f.final_attitude_error_deg,
+    },
+    FigureColumn {
+        name: "position_error_m",
+        title: "End-effector position error",
+        unit: "m",
+        get: |f| f.position_error_m,
+    },
+    FigureColumn {
+        name: "orientation_error_deg",
+        title: "End-effector orientation error",
+        unit: "deg",
+        get: |f| f.orientation_error_deg,
+    },
+    FigureColumn {
+        name: "f",
+        title: "Pose error f",
+        unit: "m, rad",
+        get: |f| f.f,
+    },
 ];
 
 /// The header of `runs.csv` for `chain`.
 pub fn header(chain: &Chain) -> Vec<String> {
     let mut h = vec!["sample".to_string()];
-    h.extend(FIGURES.iter().map(|(n, _)| (*n).to_string()));
+    h.extend(FIGURES.iter().map(|c| c.name.to_string()));
     h.extend(
         [
             "base_rate_x_deg_s",
@@ -77,7 +114,7 @@ fn num(v: f64) -> String {
 /// One row of `runs.csv`, in [`header`]'s order.
 pub fn record(r: &Row) -> Vec<String> {
     let mut out = vec![r.sample.to_string()];
-    out.extend(FIGURES.iter().map(|(_, get)| num(get(&r.figures))));
+    out.extend(FIGURES.iter().map(|c| num((c.get)(&r.figures))));
     out.extend(r.draw.base_rate.iter().map(|w| num(w.to_degrees())));
     for ((m, c), i) in r.draw.mass.iter().zip(&r.draw.com).zip(&r.draw.inertia) {
         out.push(num(*m));
@@ -112,7 +149,7 @@ pub fn read_figures(origin: &str, text: &str) -> Result<Vec<(u64, Figures)>, Cli
     let sample = col("sample")?;
     let cols: Vec<usize> = FIGURES
         .iter()
-        .map(|(n, _)| col(n))
+        .map(|c| col(c.name))
         .collect::<Result<_, _>>()?;
     let mut out = Vec::new();
     for (k, rec) in r.records().enumerate() {
@@ -192,7 +229,7 @@ impl Statistics {
     /// Over `figures`, in sample order.
     pub fn of(figures: &[Figures]) -> Self {
         let col = |k: usize| -> Stat {
-            let v: Vec<f64> = figures.iter().map(|f| FIGURES[k].1(f)).collect();
+            let v: Vec<f64> = figures.iter().map(|f| (FIGURES[k].get)(f)).collect();
             Stat::of(&v)
         };
         Self {
@@ -293,7 +330,8 @@ pub fn markdown(r: &Report) -> String {
         out,
         "\n\n| figure | nominal | p50 | p95 | p99 | max | mean |\n|---|---|---|---|---|---|---|"
     );
-    for (k, (name, get)) in FIGURES.iter().enumerate() {
+    for (k, c) in FIGURES.iter().enumerate() {
+        let (name, get) = (c.name, c.get);
         let s = r.statistics.get(k);
         let _ = writeln!(
             out,
@@ -306,7 +344,7 @@ pub fn markdown(r: &Report) -> String {
             s.mean
         );
     }
-    let limit = 0.01;
+    let limit = BASE_LIMIT_DEG;
     let _ = writeln!(
         out,
         "\nThe paper's limit on the base disturbance is {limit}°: the nominal flight {} it; p99 {} it.",
@@ -346,6 +384,10 @@ pub fn markdown(r: &Report) -> String {
     out
 }
 
+/// The paper's limit on the base disturbance (deg): drawn on its CDF and judged in
+/// `summary.md`.
+const BASE_LIMIT_DEG: f64 = 0.01;
+
 /// Writes `summary.json`, `summary.md`, `sensitivity.csv` and the CDFs (`merge` too).
 pub fn write_report(
     out: &OutDir,
@@ -359,10 +401,13 @@ pub fn write_report(
     if with_plots {
         let series: Vec<plots::Cdf> = FIGURES
             .iter()
-            .map(|(name, get)| plots::Cdf {
-                name,
-                values: figures.iter().map(get).collect(),
-                limit: (*name == "base_disturbance_deg").then_some(0.01),
+            .map(|c| plots::Cdf {
+                name: c.name,
+                title: c.title,
+                unit: c.unit,
+                values: figures.iter().map(c.get).collect(),
+                limit: (c.name == "base_disturbance_deg").then_some(BASE_LIMIT_DEG),
+                nominal: Some((c.get)(&rep.nominal)),
             })
             .collect();
         plots::write_cdfs(

@@ -10,6 +10,7 @@
 
 use crate::dispersion::{Draw, Figures, Sensitivity, Settings, body_label};
 use crate::error::{CliError, Context};
+use crate::goal::number;
 use crate::output::OutDir;
 use crate::plots;
 use crate::stats::{max, percentile};
@@ -331,23 +332,25 @@ pub fn markdown(r: &Report) -> String {
         "\n\n| figure | nominal | p50 | p95 | p99 | max | mean |\n|---|---|---|---|---|---|---|"
     );
     for (k, c) in FIGURES.iter().enumerate() {
-        let (name, get) = (c.name, c.get);
         let s = r.statistics.get(k);
         let _ = writeln!(
             out,
-            "| {name} | {:.4e} | {:.4e} | {:.4e} | {:.4e} | {:.4e} | {:.4e} |",
-            get(&r.nominal),
-            s.p50,
-            s.p95,
-            s.p99,
-            s.max,
-            s.mean
+            "| {} ({}) | {} | {} | {} | {} | {} | {} |",
+            c.title,
+            c.unit,
+            number((c.get)(&r.nominal)),
+            number(s.p50),
+            number(s.p95),
+            number(s.p99),
+            number(s.max),
+            number(s.mean)
         );
     }
     let limit = BASE_LIMIT_DEG;
     let _ = writeln!(
         out,
-        "\nThe paper's limit on the base disturbance is {limit}°: the nominal flight {} it; p99 {} it.",
+        "\nThe paper's limit on the base disturbance is {} deg: the nominal flight {} it; p99 {} it.",
+        number(limit),
         if r.nominal.base_disturbance_deg <= limit {
             "meets"
         } else {
@@ -376,12 +379,23 @@ pub fn markdown(r: &Report) -> String {
             v.sort_by(|a, b| get(b).abs().total_cmp(&get(a).abs()));
             let _ = writeln!(out, "| change of {name} | step | change |\n|---|---|---|");
             for s in v.iter().take(5) {
-                let _ = writeln!(out, "| {} | {} | {:+.3e} |", s.parameter, s.step, get(s));
+                let _ = writeln!(out, "| {} | {} | {} |", s.parameter, s.step, signed(get(s)));
             }
             out.push('\n');
         }
     }
     out
+}
+
+/// `v` as [`number`] writes it, with its sign: `+1.44e-3`, `-0.05`, `0`.
+fn signed(v: f64) -> String {
+    if v > 0.0 {
+        format!("+{}", number(v))
+    } else if v == 0.0 {
+        "0".into()
+    } else {
+        number(v)
+    }
 }
 
 /// The paper's limit on the base disturbance (deg): drawn on its CDF and judged in
@@ -417,4 +431,64 @@ pub fn write_report(
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn figures(scale: f64) -> Figures {
+        Figures {
+            base_disturbance_deg: 1.44 * scale,
+            final_attitude_error_deg: 97.57 * scale,
+            position_error_m: 3.254e-5 * scale,
+            orientation_error_deg: 0.05 * scale,
+            f: 2.0 * scale,
+        }
+    }
+
+    /// summary.md names each figure for a reader with its unit and writes numbers plainly
+    /// where that is short (`1.44`, `97.57`), scientifically where not (`3.254e-5`), and
+    /// sensitivities with their sign.
+    /// Verifies RL-SIM-CAMP-004.
+    #[test]
+    fn summary_md_reads_plainly() {
+        let samples: Vec<Figures> = [1.0, 1.0, 1.0].map(figures).to_vec();
+        let report = Report {
+            dir: "out/plan".into(),
+            robot: "chaser7".into(),
+            seed: 7,
+            samples: 3,
+            rows: 3,
+            settings: Settings::default(),
+            nominal: figures(0.25),
+            dir_summary: DirSummary {
+                base_disturbance_deg: None,
+                truth_f: None,
+            },
+            statistics: Statistics::of(&samples),
+            sensitivity: vec![Sensitivity {
+                parameter: "link6 mass".into(),
+                step: "+5% (0.5 kg)".into(),
+                d_base_disturbance_deg: 0.03439,
+                d_position_error_m: -7.582e-4,
+                d_orientation_error_deg: 0.0,
+            }],
+        };
+        let md = markdown(&report);
+        for want in [
+            "| Base disturbance (deg) | 0.36 | 1.44 | 1.44 | 1.44 | 1.44 | 1.44 |",
+            "| Final base attitude error (deg) | 24.39 | 97.57 |",
+            "| End-effector position error (m) | 8.135e-6 | 3.254e-5 |",
+            "| Pose error f (m, rad) | 0.5 | 2 | 2 |",
+            "The paper's limit on the base disturbance is 0.01 deg",
+            "| link6 mass | +5% (0.5 kg) | +0.03439 |",
+            "| link6 mass | +5% (0.5 kg) | -7.582e-4 |",
+            "| link6 mass | +5% (0.5 kg) | 0 |",
+        ] {
+            assert!(md.contains(want), "lacks {want:?}:\n{md}");
+        }
+        assert!(!md.contains("e0 ") && !md.contains("e1 "), "{md}");
+    }
 }

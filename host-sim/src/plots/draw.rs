@@ -229,8 +229,9 @@ where
     Ok(())
 }
 
-/// The corner whose neighbourhood (about a third of each axis) holds the fewest data
-/// points and markers, so that the legend hides as little as possible.
+/// The corner whose neighbourhood (about a third of each axis) holds the fewest points of
+/// data and reference lines and markers (limits are not counted), so that the legend hides
+/// as little as possible.
 fn legend_corner(p: &Panel) -> SeriesLabelPosition {
     let frac = |v: f64, (lo, hi): (f64, f64), log: bool| {
         if log {
@@ -242,7 +243,7 @@ fn legend_corner(p: &Panel) -> SeriesLabelPosition {
     let points = p
         .lines
         .iter()
-        .filter(|l| l.kind == LineKind::Data)
+        .filter(|l| l.kind != LineKind::Limit)
         .flat_map(|l| l.segments.iter().flatten())
         .chain(p.markers.iter().map(|m| &m.at))
         .map(|&(x, y)| (frac(x, p.x, false), frac(y, p.y, p.y_log)));

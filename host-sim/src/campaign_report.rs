@@ -58,9 +58,11 @@ impl Run {
 type Column = (&'static str, fn(&Run) -> f64, bool);
 
 /// A count as an integer (`3`, not `3.000`); a median of an even number of counts can be
-/// a half (`12.5`).
+/// a half (`12.5`); a statistic of no runs (NaN, −∞: no run converged) is `–`.
 fn count(v: f64) -> String {
-    if v.fract() == 0.0 && v.abs() < 1e15 {
+    if !v.is_finite() {
+        "–".into()
+    } else if v.fract() == 0.0 && v.abs() < 1e15 {
         format!("{v:.0}")
     } else {
         number(v)
@@ -246,5 +248,18 @@ mod tests {
             "{md}"
         );
         assert!(!md.contains(".000") && !md.contains("e0 "), "{md}");
+        // No run converged: no rollouts to success, not NaN and -inf.
+        let failed: Vec<Run> = runs
+            .iter()
+            .map(|r| Run {
+                status: "not_converged".into(),
+                ..r.clone()
+            })
+            .collect();
+        let md = summary(&failed, &[1, 2]);
+        assert!(
+            md.contains("| 0 (0.0%) | 2 (100.0%) | – | – | – | 120 |"),
+            "{md}"
+        );
     }
 }

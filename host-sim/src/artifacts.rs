@@ -106,6 +106,8 @@ pub struct Trace {
     pub ee: Vec<[f64; 3]>,
     /// Truth-model base rotation angle (deg).
     pub base_angle_deg: Vec<f64>,
+    /// Truth-model base attitude (unit quaternion `[w, x, y, z]`, base → inertial).
+    pub base_wxyz: Vec<[f64; 4]>,
 }
 
 /// What the truth model found.
@@ -152,6 +154,7 @@ pub fn write_rollout<const N: usize, const K: usize>(
             tr.qd.push(s.qd.to_vec());
             tr.ee.push(task.end_pose(&s.q, IDENTITY_WXYZ).position);
             tr.base_angle_deg.push(truth.angle().to_degrees());
+            tr.base_wxyz.push(truth.attitude());
         }
     };
     let outcome = task
@@ -265,6 +268,7 @@ pub fn write_figures<const N: usize, const K: usize>(
         ee: trace.ee,
         target: task.target().position,
         base_angle_deg: trace.base_angle_deg,
+        base_wxyz: trace.base_wxyz,
         tolerance: lt.file.planner.tolerance,
         first_hit: plan.as_ref().and_then(|p| p.first_hit),
         best_f_history: plan.map(|p| p.history),

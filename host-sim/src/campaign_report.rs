@@ -2,6 +2,7 @@
 //! of `runs.csv`, and [`summary`] (`summary.md`), a function of the rows alone (so the
 //! shards of a campaign merged give what one machine writes, wall times aside).
 
+use crate::goal::number;
 use crate::stats::{max, median, percentile};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -53,8 +54,20 @@ impl Run {
     }
 }
 
-/// A summary column: name, the value of a run, scientific notation.
+/// A summary column: name, the value of a run, whether it is a count.
 type Column = (&'static str, fn(&Run) -> f64, bool);
+
+/// A count as an integer (`3`, not `3.000`); a median of an even number of counts can be
+/// a half (`12.5`); a statistic of no runs (NaN, −∞: no run converged) is `–`.
+fn count(v: f64) -> String {
+    if !v.is_finite() {
+        "–".into()
+    } else if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{v:.0}")
+    } else {
+        number(v)
+    }
+}
 
 fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
     let ok = runs.iter().filter(|r| r.converged()).count();
@@ -67,22 +80,16 @@ fn stats_rows(out: &mut String, label: &str, runs: &[&Run]) {
     );
     let _ = writeln!(out, "| quantity | median | p90 | max |\n|---|---|---|---|");
     let cols: [Column; 6] = [
-        ("iterations", |r| f64::from(r.iterations), false),
-        ("rollouts", |r| f64::from(r.rollouts), false),
-        ("f", |r| r.f, true),
-        ("base disturbance (deg)", |r| r.base_disturbance_deg, true),
-        ("truth f", |r| r.truth_f, true),
+        ("iterations", |r| f64::from(r.iterations), true),
+        ("rollouts", |r| f64::from(r.rollouts), true),
+        ("f", |r| r.f, false),
+        ("base disturbance (deg)", |r| r.base_disturbance_deg, false),
+        ("truth f", |r| r.truth_f, false),
         ("wall time (s)", |r| r.wall_time_s, false),
     ];
-    for (name, get, sci) in cols {
+    for (name, get, is_count) in cols {
         let v: Vec<f64> = runs.iter().map(|r| get(r)).collect();
-        let fmt = |x: f64| {
-            if sci {
-                format!("{x:.3e}")
-            } else {
-                format!("{x:.3}")
-            }
-        };
+        let fmt = |x: f64| if is_count { count(x) } else { number(x) };
         let _ = writeln!(
             out,
             "| {name} | {} | {} | {} |",
@@ -106,16 +113,16 @@ fn overview_row(out: &mut String, label: &str, runs: &[&Run]) {
     );
     let _ = writeln!(
         out,
-        "| {label} | {} | {} ({:.1}%) | {sigma_e} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} |",
+        "| {label} | {} | {} ({:.1}%) | {sigma_e} | {} | {} | {} | {} | {} | {} |",
         runs.len(),
         ok.len(),
         100.0 * ok.len() as f64 / runs.len().max(1) as f64,
-        median(&rollouts),
-        percentile(&rollouts, 95.0),
-        max(&rollouts),
-        max(&all_rollouts),
-        median(&wall),
-        max(&wall),
+        count(median(&rollouts)),
+        count(percentile(&rollouts, 95.0)),
+        count(max(&rollouts)),
+        count(max(&all_rollouts)),
+        number(median(&wall)),
+        number(max(&wall)),
     );
 }
 
@@ -185,5 +192,74 @@ fn seed_text(seeds: &[u64]) -> String {
             .map(u64::to_string)
             .collect::<Vec<_>>()
             .join(","),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn run(seed: u64, iterations: u32, rollouts: u32, f: f64, wall: f64) -> Run {
+        Run {
+            task: "t.toml".into(),
+            robot: "arm6".into(),
+            strategy: "multistart".into(),
+            seed,
+            status: "converged".into(),
+            stop: "converged".into(),
+            asked: "f ≤ σ_e = 0.05 (the paper's test)".into(),
+            iterations,
+            rollouts,
+            f,
+            phi: 0.0,
+            position_error_m: f,
+            orientation_error_deg: 1.44,
+            base_disturbance_deg: 1.44,
+            truth_f: 97.57,
+            sigma_e_met: true,
+            wall_time_s: wall,
+        }
+    }
+
+    /// Counts are integers (`3`, not `3.000`; the median of an even number of them can be
+    /// a half); other numbers read plainly where that is short (`1.44`, `97.57`) and
+    /// scientifically where not (`3.254e-5`).
+    /// Verifies RL-SIM-CAMP-004.
+    #[test]
+    fn counts_are_integers_and_numbers_read_plainly() {
+        let runs = [run(1, 3, 97, 3.254e-5, 0.25), run(2, 4, 120, 3.254e-5, 0.5)];
+        let md = summary(&runs, &[1, 2]);
+        assert!(md.contains("| iterations | 3.5 | 4 | 4 |"), "{md}");
+        assert!(md.contains("| rollouts | 108.5 | 120 | 120 |"), "{md}");
+        assert!(
+            md.contains("| f | 3.254e-5 | 3.254e-5 | 3.254e-5 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| base disturbance (deg) | 1.44 | 1.44 | 1.44 |"),
+            "{md}"
+        );
+        assert!(md.contains("| truth f | 97.57 | 97.57 | 97.57 |"), "{md}");
+        assert!(md.contains("| wall time (s) | 0.375 | 0.5 | 0.5 |"), "{md}");
+        // Overview: rollouts to success median, p95, max, most spent; wall median, max.
+        assert!(
+            md.contains("| 108.5 | 120 | 120 | 120 | 0.375 | 0.5 |"),
+            "{md}"
+        );
+        assert!(!md.contains(".000") && !md.contains("e0 "), "{md}");
+        // No run converged: no rollouts to success, not NaN and -inf.
+        let failed: Vec<Run> = runs
+            .iter()
+            .map(|r| Run {
+                status: "not_converged".into(),
+                ..r.clone()
+            })
+            .collect();
+        let md = summary(&failed, &[1, 2]);
+        assert!(
+            md.contains("| 0 (0.0%) | 2 (100.0%) | – | – | – | 120 |"),
+            "{md}"
+        );
     }
 }

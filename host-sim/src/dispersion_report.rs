@@ -10,6 +10,7 @@
 
 use crate::dispersion::{Draw, Figures, Sensitivity, Settings, body_label};
 use crate::error::{CliError, Context};
+use crate::goal::number;
 use crate::output::OutDir;
 use crate::plots;
 use crate::stats::{max, percentile};
@@ -31,19 +32,56 @@ pub struct Row {
 /// How to read one figure from [`Figures`].
 pub type Getter = fn(&Figures) -> f64;
 
-/// The figures' columns, in order, with how to read them from [`Figures`].
-pub const FIGURES: [(&str, Getter); 5] = [
-    ("base_disturbance_deg", |f| f.base_disturbance_deg),
-    ("final_attitude_error_deg", |f| f.final_attitude_error_deg),
-    ("position_error_m", |f| f.position_error_m),
-    ("orientation_error_deg", |f| f.orientation_error_deg),
-    ("f", |f| f.f),
+/// One figure of a dispersion: its column, what it is for a reader, and how to read it.
+pub struct FigureColumn {
+    /// The column of `runs.csv` and the field of [`Statistics`] (unit included).
+    pub name: &'static str,
+    /// What it is, for a reader (the tables of `summary.md`, the CDFs' titles).
+    pub title: &'static str,
+    /// Its unit.
+    pub unit: &'static str,
+    /// Its value in [`Figures`].
+    pub get: Getter,
+}
+
+/// The figures' columns, in order.
+pub const FIGURES: [FigureColumn; 5] = [
+    FigureColumn {
+        name: "base_disturbance_deg",
+        title: "Base disturbance",
+        unit: "deg",
+        get: |f| f.base_disturbance_deg,
+    },
+    FigureColumn {
+        name: "final_attitude_error_deg",
+        title: "Final base attitude error",
+        unit: "deg",
+        get: |f| f.final_attitude_error_deg,
+    },
+    FigureColumn {
+        name: "position_error_m",
+        title: "End-effector position error",
+        unit: "m",
+        get: |f| f.position_error_m,
+    },
+    FigureColumn {
+        name: "orientation_error_deg",
+        title: "End-effector orientation error",
+        unit: "deg",
+        get: |f| f.orientation_error_deg,
+    },
+    FigureColumn {
+        name: "f",
+        title: "Pose error f",
+        unit: "m, rad",
+        get: |f| f.f,
+    },
 ];
 
 /// The header of `runs.csv` for `chain`.
 pub fn header(chain: &Chain) -> Vec<String> {
     let mut h = vec!["sample".to_string()];
-    h.extend(FIGURES.iter().map(|(n, _)| (*n).to_string()));
+    h.extend(FIGURES.iter().map(|c| c.name.to_string()));
     h.extend(
         [
             "base_rate_x_deg_s",
@@ -77,7 +115,7 @@ fn num(v: f64) -> String {
 /// One row of `runs.csv`, in [`header`]'s order.
 pub fn record(r: &Row) -> Vec<String> {
     let mut out = vec![r.sample.to_string()];
-    out.extend(FIGURES.iter().map(|(_, get)| num(get(&r.figures))));
+    out.extend(FIGURES.iter().map(|c| num((c.get)(&r.figures))));
     out.extend(r.draw.base_rate.iter().map(|w| num(w.to_degrees())));
     for ((m, c), i) in r.draw.mass.iter().zip(&r.draw.com).zip(&r.draw.inertia) {
         out.push(num(*m));
@@ -112,7 +150,7 @@ pub fn read_figures(origin: &str, text: &str) -> Result<Vec<(u64, Figures)>, Cli
     let sample = col("sample")?;
     let cols: Vec<usize> = FIGURES
         .iter()
-        .map(|(n, _)| col(n))
+        .map(|c| col(c.name))
         .collect::<Result<_, _>>()?;
     let mut out = Vec::new();
     for (k, rec) in r.records().enumerate() {
@@ -192,7 +230,7 @@ impl Statistics {
     /// Over `figures`, in sample order.
     pub fn of(figures: &[Figures]) -> Self {
         let col = |k: usize| -> Stat {
-            let v: Vec<f64> = figures.iter().map(|f| FIGURES[k].1(f)).collect();
+            let v: Vec<f64> = figures.iter().map(|f| (FIGURES[k].get)(f)).collect();
             Stat::of(&v)
         };
         Self {
@@ -293,23 +331,26 @@ pub fn markdown(r: &Report) -> String {
         out,
         "\n\n| figure | nominal | p50 | p95 | p99 | max | mean |\n|---|---|---|---|---|---|---|"
     );
-    for (k, (name, get)) in FIGURES.iter().enumerate() {
+    for (k, c) in FIGURES.iter().enumerate() {
         let s = r.statistics.get(k);
         let _ = writeln!(
             out,
-            "| {name} | {:.4e} | {:.4e} | {:.4e} | {:.4e} | {:.4e} | {:.4e} |",
-            get(&r.nominal),
-            s.p50,
-            s.p95,
-            s.p99,
-            s.max,
-            s.mean
+            "| {} ({}) | {} | {} | {} | {} | {} | {} |",
+            c.title,
+            c.unit,
+            number((c.get)(&r.nominal)),
+            number(s.p50),
+            number(s.p95),
+            number(s.p99),
+            number(s.max),
+            number(s.mean)
         );
     }
-    let limit = 0.01;
+    let limit = BASE_LIMIT_DEG;
     let _ = writeln!(
         out,
-        "\nThe paper's limit on the base disturbance is {limit}°: the nominal flight {} it; p99 {} it.",
+        "\nThe paper's limit on the base disturbance is {} deg: the nominal flight {} it; p99 {} it.",
+        number(limit),
         if r.nominal.base_disturbance_deg <= limit {
             "meets"
         } else {
@@ -338,13 +379,28 @@ pub fn markdown(r: &Report) -> String {
             v.sort_by(|a, b| get(b).abs().total_cmp(&get(a).abs()));
             let _ = writeln!(out, "| change of {name} | step | change |\n|---|---|---|");
             for s in v.iter().take(5) {
-                let _ = writeln!(out, "| {} | {} | {:+.3e} |", s.parameter, s.step, get(s));
+                let _ = writeln!(out, "| {} | {} | {} |", s.parameter, s.step, signed(get(s)));
             }
             out.push('\n');
         }
     }
     out
 }
+
+/// `v` as [`number`] writes it, with its sign: `+1.44e-3`, `-0.05`, `0`.
+fn signed(v: f64) -> String {
+    if v > 0.0 {
+        format!("+{}", number(v))
+    } else if v == 0.0 {
+        "0".into()
+    } else {
+        number(v)
+    }
+}
+
+/// The paper's limit on the base disturbance (deg): drawn on its CDF and judged in
+/// `summary.md`.
+const BASE_LIMIT_DEG: f64 = 0.01;
 
 /// Writes `summary.json`, `summary.md`, `sensitivity.csv` and the CDFs (`merge` too).
 pub fn write_report(
@@ -359,10 +415,13 @@ pub fn write_report(
     if with_plots {
         let series: Vec<plots::Cdf> = FIGURES
             .iter()
-            .map(|(name, get)| plots::Cdf {
-                name,
-                values: figures.iter().map(get).collect(),
-                limit: (*name == "base_disturbance_deg").then_some(0.01),
+            .map(|c| plots::Cdf {
+                name: c.name,
+                title: c.title,
+                unit: c.unit,
+                values: figures.iter().map(c.get).collect(),
+                limit: (c.name == "base_disturbance_deg").then_some(BASE_LIMIT_DEG),
+                nominal: Some((c.get)(&rep.nominal)),
             })
             .collect();
         plots::write_cdfs(
@@ -372,4 +431,64 @@ pub fn write_report(
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn figures(scale: f64) -> Figures {
+        Figures {
+            base_disturbance_deg: 1.44 * scale,
+            final_attitude_error_deg: 97.57 * scale,
+            position_error_m: 3.254e-5 * scale,
+            orientation_error_deg: 0.05 * scale,
+            f: 2.0 * scale,
+        }
+    }
+
+    /// summary.md names each figure for a reader with its unit and writes numbers plainly
+    /// where that is short (`1.44`, `97.57`), scientifically where not (`3.254e-5`), and
+    /// sensitivities with their sign.
+    /// Verifies RL-SIM-CAMP-004.
+    #[test]
+    fn summary_md_reads_plainly() {
+        let samples: Vec<Figures> = [1.0, 1.0, 1.0].map(figures).to_vec();
+        let report = Report {
+            dir: "out/plan".into(),
+            robot: "chaser7".into(),
+            seed: 7,
+            samples: 3,
+            rows: 3,
+            settings: Settings::default(),
+            nominal: figures(0.25),
+            dir_summary: DirSummary {
+                base_disturbance_deg: None,
+                truth_f: None,
+            },
+            statistics: Statistics::of(&samples),
+            sensitivity: vec![Sensitivity {
+                parameter: "link6 mass".into(),
+                step: "+5% (0.5 kg)".into(),
+                d_base_disturbance_deg: 0.03439,
+                d_position_error_m: -7.582e-4,
+                d_orientation_error_deg: 0.0,
+            }],
+        };
+        let md = markdown(&report);
+        for want in [
+            "| Base disturbance (deg) | 0.36 | 1.44 | 1.44 | 1.44 | 1.44 | 1.44 |",
+            "| Final base attitude error (deg) | 24.39 | 97.57 |",
+            "| End-effector position error (m) | 8.135e-6 | 3.254e-5 |",
+            "| Pose error f (m, rad) | 0.5 | 2 | 2 |",
+            "The paper's limit on the base disturbance is 0.01 deg",
+            "| link6 mass | +5% (0.5 kg) | +0.03439 |",
+            "| link6 mass | +5% (0.5 kg) | -7.582e-4 |",
+            "| link6 mass | +5% (0.5 kg) | 0 |",
+        ] {
+            assert!(md.contains(want), "lacks {want:?}:\n{md}");
+        }
+        assert!(!md.contains("e0 ") && !md.contains("e1 "), "{md}");
+    }
 }

@@ -247,6 +247,7 @@ mod tests {
     }
 
     /// Numbers read plainly where they are short, scientifically where they are not.
+    /// Verifies RL-SIM-CAMP-004.
     #[test]
     fn numbers_read_as_an_engineer_writes_them() {
         assert_eq!(number(1.440), "1.44");

@@ -80,7 +80,14 @@ fn zero_sigmas_reproduce_the_nominal_truth_model_bit_for_bit() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = rollout(tmp.path());
     let out = tmp.path().join("d0");
-    ok(&disperse(&dir, &out, &["--samples", "3", "--seed", "1"]));
+    let o = disperse(&dir, &out, &["--samples", "3", "--seed", "1"]);
+    ok(&o);
+    // It says so: nothing was dispersed.
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("every dispersion is 0"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let s = json(&dir.join("summary.json"));
     // The task's target as the core holds it (its quaternion normalised).
     let task = host_sim::taskfile::load(&dir.join("task.toml"))

@@ -264,7 +264,7 @@ fn plots_on_plan_and_rollout() {
         }
     }
     let svg = std::fs::read_to_string(out.join("joints.svg")).unwrap();
-    assert!(svg.contains("time (s)") && svg.contains("position in range"));
+    assert!(svg.contains("time (s)") && svg.contains("angle (deg)") && svg.contains("limits"));
     // rollout --plots: no convergence figure.
     let eta: Vec<String> = {
         let p: Value =

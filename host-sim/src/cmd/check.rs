@@ -23,7 +23,7 @@
 use crate::args::parse_eta;
 use crate::artifacts::{Summary, read_bundle, read_output_file};
 use crate::error::{CliError, Context};
-use crate::goal::{Asked, Goal};
+use crate::goal::{Asked, Goal, number};
 use crate::output::read_trajectory_csv;
 use crate::retiming::{self, RetimeSummary};
 use crate::taskfile::LoadedTask;
@@ -375,7 +375,7 @@ fn end_q_unchanged<const N: usize>(written: &[Setpoint<N>], fresh: &retiming::Re
     });
     line(
         "end q vs the original plan's q_S",
-        format!("{end_diff:.3e} rad"),
+        format!("{} rad", number(end_diff)),
         "<= 1e-9 rad".into(),
         end_diff <= 1e-9,
     )
@@ -622,10 +622,10 @@ fn pose_lines<const N: usize, const K: usize>(
     let mut lines = vec![line(
         &name,
         format!(
-            "{:.3e} ({:.3e} m, {:.3e} deg)",
-            e.norm(),
-            e.position_m(),
-            e.orientation_deg()
+            "{} ({} m, {} deg)",
+            number(e.norm()),
+            number(e.position_m()),
+            number(e.orientation_deg())
         ),
         format!("<= {tolerance:e} ({key})"),
         e.norm() <= tolerance,
@@ -634,7 +634,7 @@ fn pose_lines<const N: usize, const K: usize>(
         let v = e.position_m();
         lines.push(line(
             &format!("end-effector position error ({model})"),
-            format!("{v:.3e} m"),
+            format!("{} m", number(v)),
             format!("<= {p:e} m ([target] position_tolerance_m)"),
             v <= p,
         ));
@@ -643,7 +643,7 @@ fn pose_lines<const N: usize, const K: usize>(
         let v = e.orientation_deg();
         lines.push(line(
             &format!("end-effector orientation error ({model})"),
-            format!("{v:.3e} deg"),
+            format!("{} deg", number(v)),
             format!("<= {o:e} deg ([target] orientation_tolerance_deg)"),
             v <= o,
         ));
@@ -662,7 +662,7 @@ fn base_disturbance<const N: usize, const K: usize>(
         "base disturbance (truth model)",
         match truth.error() {
             Some(e) => format!("failed: {e}"),
-            None => format!("{deg:.3e} deg"),
+            None => format!("{} deg", number(deg)),
         },
         format!("<= {limit} deg ([check] max_base_disturbance_deg)"),
         truth.error().is_none() && deg <= limit,

@@ -15,6 +15,7 @@ use crate::dispersion::{self, Draw, Figures, JointPath, Settings};
 use crate::dispersion_report::{self as report, DirSummary, Report, Row, Statistics};
 use crate::drive;
 use crate::error::{CliError, Context};
+use crate::goal::number;
 use crate::output::{FileKind, OutDir, write_file};
 use crate::shards::{self, Manifest, Shard, parse_shard};
 use crate::taskfile::{DispersionKey, LoadedTask};
@@ -93,11 +94,11 @@ impl Args {
             .entries()
             .iter()
             .any(|(key, v)| *key != "truncation_sigmas" && *v > 0.0);
-        if !spread {
-            return Err(CliError::input(format!(
-                "every dispersion is 0 (no flag such as --mass-rel-sigma, no [dispersion] table in {}): the {samples} samples would all be the nominal robot",
+        if !spread && samples > 0 {
+            eprintln!(
+                "note: every dispersion is 0 (no flag such as --mass-rel-sigma, no [dispersion] table in {}): the {samples} samples are all the nominal robot",
                 lt.path.display()
-            )));
+            );
         }
         if samples == 0 || samples > MAX_SAMPLES {
             return Err(CliError::input(format!(
@@ -323,11 +324,11 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
         )
     };
     eprintln!(
-        "disperse: {} samples{part}: base disturbance p99 {:.3e} deg (nominal {:.3e}), position error p99 {:.3e} m, in {:.1} s -> {}",
+        "disperse: {} samples{part}: base disturbance p99 {} deg (nominal {}), position error p99 {} m, in {:.1} s -> {}",
         rows.len(),
-        s.base_disturbance_deg.p99,
-        nominal.base_disturbance_deg,
-        s.position_error_m.p99,
+        number(s.base_disturbance_deg.p99),
+        number(nominal.base_disturbance_deg),
+        number(s.position_error_m.p99),
         run.started.elapsed().as_secs_f64(),
         path.display()
     );

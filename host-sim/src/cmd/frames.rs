@@ -8,6 +8,7 @@
 use crate::args::PlanArgs;
 use crate::drive::HOST_CAPACITY;
 use crate::error::{CliError, Context};
+use crate::goal::number;
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::with_dims;
 use reactionless::{Planner, Status};
@@ -99,7 +100,7 @@ fn run(
             report.max_frame_ms, report.mean_frame_ms
         );
         println!(
-            "result             {:>10} after {} iterations, {} rollouts, f = {:.3e}",
+            "result             {:>10} after {} iterations, {} rollouts, f = {}",
             if report.converged {
                 "converged"
             } else {
@@ -107,7 +108,7 @@ fn run(
             },
             report.iterations,
             report.rollouts,
-            report.f
+            number(report.f)
         );
     }
     if report.converged {

@@ -222,10 +222,10 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     let path = dir.commit()?;
     if let Some(s) = retimed {
         eprintln!(
-            "retime: {:.2} s (was {:.2} s), base disturbance = {:.3e} deg -> {}/retimed",
+            "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}/retimed",
             s.duration_s,
             s.original_duration_s,
-            s.base_disturbance_deg,
+            number(s.base_disturbance_deg),
             path.display()
         );
     }

@@ -11,6 +11,7 @@
 
 use crate::args::parse_eta;
 use crate::error::{CliError, Context};
+use crate::goal::number;
 use crate::output::OutDir;
 use crate::retiming;
 use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
@@ -106,10 +107,10 @@ pub fn run_n<const N: usize, const K: usize>(
     )?;
     let path = dir.commit()?;
     eprintln!(
-        "retime: {:.2} s (was {:.2} s), base disturbance = {:.3e} deg -> {}",
+        "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
         s.duration_s,
         s.original_duration_s,
-        s.base_disturbance_deg,
+        number(s.base_disturbance_deg),
         path.display()
     );
     Ok(())

@@ -8,6 +8,7 @@ use crate::args::{GoalArgs, List, eta_error, parse_eta, parse_list};
 use crate::artifacts::{summary, write_bundle, write_figures, write_rollout};
 use crate::drive::HOST_CAPACITY;
 use crate::error::CliError;
+use crate::goal::number;
 use crate::output::OutDir;
 use crate::taskfile::{self, LoadedTask, Overrides};
 use crate::view;
@@ -78,10 +79,10 @@ fn run_n<const N: usize, const K: usize>(
     }
     let path = dir.commit()?;
     eprintln!(
-        "rollout: f = {:.3e}, phi = {}, base disturbance = {:.3e} deg -> {}",
-        run.outcome.f,
-        run.outcome.phi,
-        run.truth.base_disturbance_deg,
+        "rollout: f = {}, phi = {}, base disturbance = {} deg -> {}",
+        number(run.outcome.f),
+        number(run.outcome.phi),
+        number(run.truth.base_disturbance_deg),
         path.display()
     );
     Ok(())

@@ -21,7 +21,9 @@ pub(super) fn draw_figure<DB: DrawingBackend>(
             .map_err(e)?,
         None => body.clone(),
     };
-    let areas = area.split_evenly((1, fig.panels.len().max(1)));
+    let columns = fig.columns.clamp(1, fig.panels.len().max(1));
+    let rows = fig.panels.len().div_ceil(columns).max(1);
+    let areas = area.split_evenly((rows, columns));
     for (panel, a) in fig.panels.iter().zip(&areas) {
         draw_panel(a, panel, fig.equal_aspect)?;
     }
@@ -120,8 +122,8 @@ where
     let x_fmt = |v: &f64| tick_label(p.x_ticks, *v);
     let y_fmt = |v: &f64| tick_label(p.y_ticks, *v);
     let mut mesh = chart.configure_mesh();
-    mesh.x_desc(p.x_label)
-        .y_desc(p.y_label)
+    mesh.x_desc(p.x_label.as_str())
+        .y_desc(p.y_label.as_str())
         .axis_desc_style(("sans-serif", 18))
         .label_style(("sans-serif", 14))
         .x_label_formatter(&x_fmt)
@@ -131,6 +133,9 @@ where
     if let Some(n) = p.x_label_count {
         mesh.x_labels(n);
     }
+    if let Some(n) = p.y_label_count {
+        mesh.y_labels(n);
+    }
     mesh.draw().map_err(e)?;
 
     let mut legend = false;
@@ -138,6 +143,7 @@ where
         let style = match line.kind {
             LineKind::Data => line.colour.stroke_width(2),
             LineKind::Limit => line.colour.mix(0.8).stroke_width(1),
+            LineKind::Reference => line.colour.stroke_width(2),
         };
         let mut annotated = false;
         // An empty segment list still gets its legend entry.
@@ -154,6 +160,9 @@ where
                 LineKind::Limit => chart
                     .draw_series(DashedLineSeries::new(seg.iter().copied(), 8, 5, style))
                     .map_err(e)?,
+                LineKind::Reference => chart
+                    .draw_series(DashedLineSeries::new(seg.iter().copied(), 2, 4, style))
+                    .map_err(e)?,
             };
             if let (Some(label), false) = (&line.label, annotated) {
                 annotated = true;
@@ -164,6 +173,7 @@ where
                     match kind {
                         LineKind::Data => PathElement::new(pts, style).into_dyn(),
                         LineKind::Limit => DashedPathElement::new(pts, 5, 3, style).into_dyn(),
+                        LineKind::Reference => DashedPathElement::new(pts, 2, 3, style).into_dyn(),
                     }
                 });
             }
@@ -196,11 +206,14 @@ where
         };
         let shape = m.shape;
         let colour = m.colour;
-        ann.label(m.label).legend(move |(x, y)| match shape {
-            Shape::Circle => Circle::new((x + 12, y), 6, style).into_dyn(),
-            Shape::Square => Rectangle::new([(x + 6, y - 6), (x + 18, y + 6)], style).into_dyn(),
-            Shape::Cross => Cross::new((x + 12, y), 7, colour.stroke_width(3)).into_dyn(),
-        });
+        ann.label(m.label.as_str())
+            .legend(move |(x, y)| match shape {
+                Shape::Circle => Circle::new((x + 12, y), 6, style).into_dyn(),
+                Shape::Square => {
+                    Rectangle::new([(x + 6, y - 6), (x + 18, y + 6)], style).into_dyn()
+                }
+                Shape::Cross => Cross::new((x + 12, y), 7, colour.stroke_width(3)).into_dyn(),
+            });
         legend = true;
     }
     if legend {
@@ -216,8 +229,9 @@ where
     Ok(())
 }
 
-/// The corner whose neighbourhood (about a third of each axis) holds the fewest data
-/// points and markers, so that the legend hides as little as possible.
+/// The corner whose neighbourhood (about a third of each axis) holds the fewest points of
+/// data and reference lines and markers (limits are not counted), so that the legend hides
+/// as little as possible.
 fn legend_corner(p: &Panel) -> SeriesLabelPosition {
     let frac = |v: f64, (lo, hi): (f64, f64), log: bool| {
         if log {
@@ -229,7 +243,7 @@ fn legend_corner(p: &Panel) -> SeriesLabelPosition {
     let points = p
         .lines
         .iter()
-        .filter(|l| l.kind == LineKind::Data)
+        .filter(|l| l.kind != LineKind::Limit)
         .flat_map(|l| l.segments.iter().flatten())
         .chain(p.markers.iter().map(|m| &m.at))
         .map(|&(x, y)| (frac(x, p.x, false), frac(y, p.y, p.y_log)));

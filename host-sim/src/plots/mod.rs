@@ -3,9 +3,14 @@
 //! Owns the figures' inputs as plain data, in SI units as computed: [`PlotData`] (a
 //! rollout or a plan), [`RetimePlotData`] (a re-timed trajectory) and [`Cdf`] (one
 //! dispersion figure); and their writers [`write_plots`], [`write_retime_data`] and
-//! [`write_cdfs`]. It reads no host-sim module but `error`: the callers (`artifacts`,
-//! `retiming`, `dispersion_report`) fill the data, the stamp included. Angles are shown in
-//! degrees on the axes (a report), labelled with units.
+//! [`write_cdfs`]. It reads no host-sim module but `error` and `goal` (for
+//! [`crate::goal::number`], the one way numbers are written for a reader): the callers
+//! (`artifacts`, `retiming`, `dispersion_report`) fill the data, the stamp included.
+//!
+//! What is drawn is what a GNC engineer reads off: angles in degrees and rates in deg/s on
+//! the axes, one panel per joint with that joint's limits as dashed lines, the base
+//! attitude as its rotation vector's three components and its magnitude, limits and
+//! requirements labelled with their values and units.
 //!
 //! Text needs no system fonts: plotters draws it with `ab_glyph` from a font embedded in the
 //! binary (a subset of DejaVu Sans, `host-sim/assets/`), registered on first use. The SVGs
@@ -52,6 +57,9 @@ pub struct PlotData {
     pub target: [f64; 3],
     /// Base rotation angle per sample, truth model (deg).
     pub base_angle_deg: Vec<f64>,
+    /// Base attitude per sample, truth model (unit quaternion `[w, x, y, z]`, base →
+    /// inertial): drawn as its rotation vector's components.
+    pub base_wxyz: Vec<[f64; 4]>,
     /// The best f after each rollout (only for plans).
     pub best_f_history: Option<Vec<f64>>,
     /// σ_e, drawn on the convergence plot.
@@ -66,7 +74,9 @@ pub struct PlotData {
 
 /// Writes the figures into `dir` as PNG and SVG; returns the file names written.
 ///
-/// Figures: `joints`, `joint_rates`, `ee_path`, `base_attitude`, and `convergence` when
+/// Figures: `joints` (deg) and `joint_rates` (deg/s), one panel per joint with its limits;
+/// `ee_path`; `base_attitude` (the rotation vector's components and magnitude, deg, and the
+/// magnitude against the requirement on a log axis); and `convergence` when
 /// [`PlotData::best_f_history`] is present; each as `NAME.png` and `NAME.svg`. `dir` must
 /// exist. Bad input (empty or mismatched vectors, nothing finite to plot) and write
 /// failures are [`CliError::input`] errors; input is checked before any file is written.
@@ -96,41 +106,30 @@ pub struct RetimePlotData {
     pub stamp: String,
 }
 
-/// Writes `retimed_rates` and `retimed_accelerations` (PNG and SVG) into `dir`: each
-/// joint's rate and acceleration as a fraction of its range `[−limit, +limit]`.
+/// Writes `retimed_rates` (deg/s) and `retimed_accelerations` (deg/s²) (PNG and SVG) into
+/// `dir`: one panel per joint with its limits `±limit` as dashed lines.
 pub fn write_retime_data(dir: &Path, data: &RetimePlotData) -> Result<Vec<String>, CliError> {
     let err = |e: String| CliError::input(format!("writing plots: {e}"));
     ensure_font().map_err(err)?;
-    let base = PlotData {
-        joint_names: data.joint_names.clone(),
-        t: data.t.clone(),
-        q: data.qd.clone(),
-        qd: data.qd.clone(),
-        lower: data.qd_limit.iter().map(|v| -v).collect(),
-        upper: data.qd_limit.clone(),
-        qd_limit: data.qd_limit.clone(),
-        ee: vec![[0.0; 3]; data.t.len()],
-        target: [0.0; 3],
-        base_angle_deg: vec![0.0; data.t.len()],
-        best_f_history: None,
-        tolerance: 1.0,
-        first_hit: None,
-        base_limit_deg: 1.0,
-        stamp: data.stamp.clone(),
-    };
-    let figures = figures::retime_figures(&base, &data.qdd, &data.qdd_limit).map_err(err)?;
+    let figures = figures::retime_figures(data).map_err(err)?;
     render(dir, &figures)
 }
 
 /// One figure's values for [`write_cdfs`].
 pub struct Cdf<'a> {
-    /// The figure's name with its unit, e.g. `base_disturbance_deg`: also the file name
-    /// (`cdf_NAME`).
+    /// The figure's name with its unit, e.g. `base_disturbance_deg`: the file name is
+    /// `cdf_NAME` (letters, digits and `_` only).
     pub name: &'a str,
+    /// What it is, for a reader: `Base disturbance`; the title and the axis add the unit.
+    pub title: &'a str,
+    /// The unit of the values, e.g. `deg` or `m`.
+    pub unit: &'a str,
     /// The values, any order.
     pub values: Vec<f64>,
     /// A limit drawn as a vertical line (the paper's 0.01° on the base disturbance).
     pub limit: Option<f64>,
+    /// The nominal (undispersed) value, drawn as a vertical line.
+    pub nominal: Option<f64>,
 }
 
 /// Writes one empirical CDF per series (`cdf_NAME.png` and `.svg`) into `dir`, stamped

@@ -679,6 +679,138 @@ fn truth_refinement_reaches_1e_9_on_thin_targets() {
     }
 }
 
+/// Bad input is refused before any search, with exit 2 and the key or flag named: a path
+/// of 3 steps (`dt_s = 10`, a user thinking in milliseconds), a target 100 m away, a
+/// negative acceleration limit that `plan` does not even use, a negative refinement
+/// tolerance after a space, and a negative seed.
+/// Verifies RL-SIM-TASK-006, RL-SIM-CLI-011.
+#[test]
+fn bad_inputs_are_refused_before_any_search() {
+    let tmp = tempfile::tempdir().unwrap();
+    let far = task_with(tmp.path(), |s| {
+        let start = s.find("position_m = [").unwrap();
+        let end = start + s[start..].find(']').unwrap() + 1;
+        format!("{}position_m = [100.0, 0.0, 0.0]{}", &s[..start], &s[end..])
+    });
+    let far_path = tmp.path().join("far.toml");
+    std::fs::rename(&far, &far_path).unwrap();
+    let coarse = task_with(tmp.path(), |s| s.replace("dt_s = 0.01", "dt_s = 10.0"));
+    let coarse_path = tmp.path().join("coarse.toml");
+    std::fs::rename(&coarse, &coarse_path).unwrap();
+    let limits = task_with(tmp.path(), |s| {
+        format!("{s}\n[limits]\nqdd_max_deg_s2 = -5\n")
+    });
+    let task = paper();
+    let out = tmp.path().join("out");
+    let cases: [(Vec<&std::ffi::OsStr>, &str); 5] = [
+        (
+            vec![coarse_path.as_os_str()],
+            "[motion] dt_s = 10 gives tf_s / dt_s = 3 steps",
+        ),
+        (vec![far_path.as_os_str()], "out of reach"),
+        (vec![limits.as_os_str()], "[limits] qdd_max_deg_s2 = -5"),
+        (
+            vec![
+                task.as_os_str(),
+                "--refine-tolerance".as_ref(),
+                "-1e-6".as_ref(),
+            ],
+            "--refine-tolerance -0.000001: must be > 0",
+        ),
+        (
+            vec![task.as_os_str(), "--seed".as_ref(), "-1".as_ref()],
+            "'-1' is not a seed",
+        ),
+    ];
+    for (args, want) in cases {
+        let started = std::time::Instant::now();
+        let o = host_sim()
+            .arg("plan")
+            .args(&args)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+        assert!(started.elapsed().as_secs_f64() < 5.0, "{args:?} searched");
+    }
+}
+
+/// A single file that host-sim did not write is never replaced (`view`, `record`); a
+/// directory given as the file is refused with a hint; the file host-sim writes has the
+/// mode the user's umask gives, and replacing host-sim's own file works.
+/// Verifies RL-SIM-OUT-005.
+#[test]
+fn single_file_outputs_never_replace_a_users_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("plan");
+    let o = host_sim()
+        .arg("plan")
+        .arg(paper())
+        .args(["--paper", "--out"])
+        .arg(&plan)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mine = tmp.path().join("notes.html");
+    std::fs::write(&mine, "keep me").unwrap();
+    let rec = tmp.path().join("notes.json");
+    std::fs::write(&rec, "{\"mine\": 1}").unwrap();
+    for (args, file) in [
+        (vec!["view".into(), plan.clone().into_os_string()], &mine),
+        (
+            vec!["record".into(), paper().into_os_string(), "--paper".into()],
+            &rec,
+        ),
+    ] {
+        let o = host_sim()
+            .args(&args)
+            .arg("--out")
+            .arg(file)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("refusing to replace it"), "{err}");
+    }
+    assert_eq!(std::fs::read_to_string(&mine).unwrap(), "keep me");
+    assert_eq!(std::fs::read_to_string(&rec).unwrap(), "{\"mine\": 1}");
+    let o = host_sim()
+        .arg("view")
+        .arg(&plan)
+        .arg("--out")
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("is a directory; give a file name"), "{err}");
+    // Written under umask 027, then replaced (it is host-sim's own page).
+    let page = tmp.path().join("page.html");
+    for _ in 0..2 {
+        let o = std::process::Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "umask 027 && exec {:?} view {:?} --out {:?}",
+                env!("CARGO_BIN_EXE_host-sim"),
+                plan,
+                page
+            ))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&page).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o640, "{mode:o}");
+    }
+}
+
 /// A plan whose budget is spent exits 1 after exactly `max_rollouts` rollouts.
 /// Verifies RL-PLAN-009.
 #[test]

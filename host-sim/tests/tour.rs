@@ -6,6 +6,7 @@
 //! Requirements: RL-SIM-CLI (docs/requirements.md).
 #![allow(
     clippy::unwrap_used,
+    clippy::expect_used,
     clippy::indexing_slicing,
     clippy::panic,
     missing_docs

@@ -217,6 +217,22 @@ pub struct MultistartReport {
     pub stalled: bool,
 }
 
+impl MultistartReport {
+    /// Nothing done yet.
+    pub const NONE: Self = Self {
+        rollouts: 0,
+        starts: 0,
+        screens: 0,
+        jacobians: 0,
+        accepted: 0,
+        first_hit: None,
+        converged: false,
+        floor: false,
+        floored: 0,
+        stalled: false,
+    };
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
     /// Evaluating screening candidate `i`.
@@ -306,18 +322,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         pred: 0.0,
         ref_merit: f64::INFINITY,
         ref_rollout: 0,
-        report: MultistartReport {
-            rollouts: 0,
-            starts: 0,
-            screens: 0,
-            jacobians: 0,
-            accepted: 0,
-            first_hit: None,
-            converged: false,
-            floor: false,
-            floored: 0,
-            stalled: false,
-        },
+        report: MultistartReport::NONE,
         live: false,
         best_eta: [[0.0; 2]; K],
         best: None,
@@ -399,18 +404,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         self.pred = 0.0;
         self.ref_merit = f64::INFINITY;
         self.ref_rollout = 0;
-        self.report = MultistartReport {
-            rollouts: 0,
-            starts: 0,
-            screens: 0,
-            jacobians: 0,
-            accepted: 0,
-            first_hit: None,
-            converged: false,
-            floor: false,
-            floored: 0,
-            stalled: false,
-        };
+        self.report = MultistartReport::NONE;
         self.live = false;
         self.best_eta = [[0.0; 2]; K];
         self.best = None;

@@ -11,7 +11,7 @@
 //! lane; per rollout-equivalent (the time of L rollouts divided by L), the median of 21
 //! runs, and the throughput against the scalar rollout (`speedup`).
 
-use crate::args::parse_strategy;
+use crate::args::{GoalArgs, parse_strategy};
 use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
 use crate::stats::median;
@@ -92,18 +92,25 @@ pub struct Args {
     /// Search strategy: multistart or cpso (overrides `[planner] strategy`).
     #[arg(long, value_parser = parse_strategy)]
     strategy: Option<Strategy>,
+    /// What the timed plans must reach (the task's goal by default).
+    #[command(flatten)]
+    goal: GoalArgs,
 }
 
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        run(&self.task, self.json, self.strategy)
+        let overrides = Overrides {
+            strategy: self.strategy,
+            ..self.goal.overrides()
+        };
+        run(&self.task, self.json, &overrides)
     }
 }
 
-fn run(task_path: &Path, json: bool, strategy: Option<Strategy>) -> Result<(), CliError> {
+fn run(task_path: &Path, json: bool, overrides: &Overrides) -> Result<(), CliError> {
     let lt = taskfile::load(task_path)?;
-    let report = with_dims!(lt.chain.dof(), bench_n, &lt, strategy)?;
+    let report = with_dims!(lt.chain.dof(), bench_n, &lt, overrides)?;
     if json {
         let s = serde_json::to_string(&report).or_internal(|| "report JSON")?;
         println!("{s}");
@@ -167,7 +174,7 @@ fn time_lanes<E: Engine, const N: usize, const K: usize, const L: usize>(
 
 fn bench_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
-    strategy: Option<Strategy>,
+    overrides: &Overrides,
 ) -> Result<BenchJson, CliError> {
     let task = lt.task::<N, K>()?;
     let mut plans = Vec::new();
@@ -179,8 +186,7 @@ fn bench_n<const N: usize, const K: usize>(
             HOST_CAPACITY,
             &Overrides {
                 seed: Some(seed),
-                strategy,
-                ..Overrides::default()
+                ..*overrides
             },
         )?;
         let done = drive::plan::<N, K>(lt, config, false)?;

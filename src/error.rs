@@ -90,6 +90,18 @@ pub enum Param {
     RetimeGrid,
     /// Re-timing limit margin factor, in (0, 1].
     RetimeMargin,
+    /// Pre-shaping (phase 1) acceleration limit (rad/s²), spec §15.
+    PreshapeAccel,
+    /// Longest pre-shaping phase (s).
+    PreshapeDuration,
+    /// Angular momentum the attitude control can absorb in phase 1 (N m s).
+    WheelMomentum,
+    /// Torque the attitude control can apply in phase 1 (N m).
+    WheelTorque,
+    /// Standoff distance at the start of phase 2 (m).
+    StandoffDistance,
+    /// Standoff angle at the start of phase 2 (rad).
+    StandoffAngle,
 }
 
 impl Param {
@@ -131,6 +143,12 @@ impl Param {
             Param::AccelLimit(_) => "limits.qdd_max_deg_s2",
             Param::RetimeGrid => "retime.grid",
             Param::RetimeMargin => "retime.margin",
+            Param::PreshapeAccel => "preshape.qdd_max_deg_s2",
+            Param::PreshapeDuration => "preshape.max_duration_s",
+            Param::WheelMomentum => "preshape.max_momentum_nms",
+            Param::WheelTorque => "preshape.max_torque_nm",
+            Param::StandoffDistance => "preshape.standoff_m",
+            Param::StandoffAngle => "preshape.standoff_deg",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -345,6 +363,12 @@ impl fmt::Display for Param {
             Param::AccelLimit(j) => write!(f, "acceleration limit of joint {j}"),
             Param::RetimeGrid => f.write_str("retime grid size"),
             Param::RetimeMargin => f.write_str("retime margin"),
+            Param::PreshapeAccel => f.write_str("pre-shaping acceleration limit"),
+            Param::PreshapeDuration => f.write_str("pre-shaping duration limit"),
+            Param::WheelMomentum => f.write_str("attitude-control momentum capacity"),
+            Param::WheelTorque => f.write_str("attitude-control torque capacity"),
+            Param::StandoffDistance => f.write_str("standoff distance"),
+            Param::StandoffAngle => f.write_str("standoff angle"),
         }
     }
 }

@@ -72,8 +72,8 @@ pub mod search;
 
 // Every module keeps its flat path (`reactionless::planner`, `crate::rollout`): the folders
 // group them by layer, the paths stay what they were.
-pub use flight::{block, execute, planner, reference};
-pub use path::{batch, digest, integrator, retime, rollout, task, trajectory, truth};
+pub use flight::{block, execute, planner, reference, twophase};
+pub use path::{batch, digest, integrator, preshape, retime, rollout, task, trajectory, truth};
 pub use physics::{geometry, kinematics, model, momentum, nullspace};
 pub use search::{config, cpso, multistart, optimizer, random, refine, strategy, swarm};
 
@@ -94,6 +94,7 @@ pub use optimizer::{
     Candidate, Evaluation, Event, Method, Next, Observer, Optimizer, SearchReport, Stop,
 };
 pub use planner::{Plan, Planner, Running, Stage, Status};
+pub use preshape::{Demand, Preshape};
 pub use refine::{RefineReport, RefineStop};
 pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
 pub use strategy::Search;
@@ -101,3 +102,4 @@ pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
 pub use truth::{TRUTH_SUBSTEPS, TruthModel, TruthState};
+pub use twophase::{TwoPhaseConfig, TwoPhasePlan, TwoPhaseStop};

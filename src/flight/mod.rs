@@ -3,7 +3,8 @@
 //! Owns the resumable, budgeted [`planner`] that drives a search over rollouts, the
 //! fixed byte layout of a whole task ([`block`]), the setpoint stream of a finished plan
 //! ([`execute`]) and the reference scenario of spec §8 for code without a file system
-//! ([`reference`]).
+//! ([`reference`]), and two-phase plans for generic targets ([`twophase`]: pre-shaping
+//! under attitude control, then the reactionless motion).
 //!
 //! May use every layer below: [`crate::search`], [`crate::path`], [`crate::physics`],
 //! [`crate::error`], [`crate::lanes`].
@@ -12,3 +13,4 @@ pub mod block;
 pub mod execute;
 pub mod planner;
 pub mod reference;
+pub mod twophase;

@@ -79,6 +79,33 @@ impl<const N: usize, const K: usize> Task<N, K> {
         self.finish(q0, target, motion)
     }
 
+    /// Moves the start to `q_s` (rad) after a pre-shaping phase (spec §15): the base
+    /// attitude was held at identity and the system CoM has not moved, so `com0` is kept and
+    /// the start frames, start pose and initial basis are those of `q_s`. A rollout of the
+    /// result is phase 2 of a two-phase plan, in the same inertial frame as the task.
+    ///
+    /// # Errors
+    /// As [`Task::new`] for the start: non-finite, outside the limits, or a rank-deficient
+    /// `H~bm(q_s)`; the task is then unchanged.
+    pub fn move_start(&mut self, q_s: &[f64; N]) -> Result<(), Error> {
+        let robot = &self.robot;
+        let limits = robot.lower().iter().zip(robot.upper().iter());
+        for (i, (q, (lo, hi))) in q_s.iter().zip(limits).enumerate() {
+            let j = (i + 1) as u8;
+            if !q.is_finite() {
+                return Err(Error::NotFinite(Param::Start(j)));
+            }
+            if q < lo || q > hi {
+                return Err(Error::StartOutsideLimits(j));
+            }
+        }
+        let frames = Frames::new(robot, q_s);
+        self.basis0 = Basis::initial(&coupling(robot, &frames)).map_err(rank_error(0))?;
+        self.start_pose = frames.end_pose(&self.com0, IDENTITY_WXYZ);
+        self.q0 = *q_s;
+        Ok(())
+    }
+
     /// Everything after the robot: start, target, motion, start frames, initial basis.
     fn finish(&mut self, q0: [f64; N], target: Pose, motion: Motion) -> Result<(), Error> {
         let () = Dims::<N, K>::VALID;

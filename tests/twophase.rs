@@ -1,0 +1,159 @@
+//! Two-phase plans (spec §15, issue #30) on generic targets of the reference robot: the end
+//! pose at a configuration 10° per joint from the start, which no rollout from the start
+//! reaches (the single-phase planner misses it by decimetres).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
+
+use reactionless::reference::paper_task;
+use reactionless::twophase::{TwoPhaseConfig, TwoPhaseStop, plan};
+use reactionless::{IDENTITY_WXYZ, Pose, Preshape, Task, TruthModel};
+
+/// The reference task with its target moved to the end pose at `q0 + offsets`.
+fn joint_space_task(offsets_deg: [f64; 7]) -> Task<7, 4> {
+    let base = paper_task().unwrap();
+    let mut q = *base.start();
+    for (q, d) in q.iter_mut().zip(offsets_deg) {
+        *q += d.to_radians();
+    }
+    let target = base.end_pose(&q, IDENTITY_WXYZ);
+    Task::new(base.robot().clone(), *base.start(), target, *base.motion()).unwrap()
+}
+
+const OFFSETS: [f64; 7] = [10.0, -10.0, 10.0, -10.0, 10.0, 10.0, -10.0];
+
+/// A generic target is reached to f ≤ 1e-6 (planner model) with phase 2 reactionless on
+/// the truth model (< 0.01°), phase 1 within the rate, acceleration, duration and wheel
+/// bounds on its written samples, the standoff kept at q_s, and the whole thing repeated
+/// bit for bit from the same seed.
+/// Verifies RL-TWO-001, RL-TWO-002, RL-TWO-003.
+#[test]
+fn a_joint_space_target_is_reached_in_two_phases() {
+    let task = joint_space_task(OFFSETS);
+    let config = TwoPhaseConfig::reference();
+    let p = plan(&task, &config, 1).unwrap();
+    assert_eq!(p.stop, TwoPhaseStop::Converged, "{p:?}");
+    assert!(p.rollouts <= 500, "{} rollouts", p.rollouts);
+    let o = p.outcome.unwrap();
+    assert!(
+        o.f <= 1e-6 && o.phi == 0.0,
+        "f = {:e}, phi = {}",
+        o.f,
+        o.phi
+    );
+
+    // Phase 2 from q_s, flown on the truth model: the base stays put.
+    let mut phase2 = task.clone();
+    phase2.move_start(&p.q_s).unwrap();
+    let mut truth = TruthModel::new(&phase2, 10);
+    let again = phase2.rollout(&p.eta, &mut truth).unwrap();
+    assert_eq!(again, o, "phase 2 replays bit for bit");
+    let deg = truth.max_angle().to_degrees();
+    assert!(deg < 0.01, "phase-2 base disturbance {deg}°");
+
+    // Phase 1: the written samples keep the limits; the demand is within the bounds.
+    let robot = task.robot();
+    let (qd, qdd, dt) = (robot.qd_max(), config.qdd_max, task.motion().dt());
+    let s = p.preshape.steps();
+    assert_eq!(p.preshape.sample(0).0, *task.start());
+    assert_eq!(p.preshape.sample(s).0, p.q_s);
+    for j in 1..s {
+        let (a, b, c) = (
+            p.preshape.sample(j - 1).0,
+            p.preshape.sample(j).0,
+            p.preshape.sample(j + 1).0,
+        );
+        for r in 0..7 {
+            assert!((c[r] - b[r]).abs() / dt <= qd);
+            assert!((c[r] - 2.0 * b[r] + a[r]).abs() / (dt * dt) <= qdd * (1.0 + 1e-9));
+            assert!(b[r] >= robot.lower()[r] && b[r] <= robot.upper()[r]);
+        }
+    }
+    assert!(p.preshape.duration() <= config.max_duration);
+    assert!(p.demand.momentum_nms <= config.max_momentum);
+    assert!(p.demand.torque_nm <= config.max_torque);
+    assert_eq!(p.demand, p.preshape.demand(robot));
+
+    // The standoff: phase 2 is a real final approach.
+    let start = phase2.start_pose();
+    let e = start.error_to(task.target());
+    let dist = e.position.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let angle = e.rotation.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(
+        dist >= config.standoff_m || angle >= config.standoff_rad,
+        "{dist} m {angle} rad"
+    );
+
+    assert_eq!(plan(&task, &config, 1).unwrap(), p, "same seed, same bits");
+}
+
+/// Phase 1's base: the CoM does not move, so the base shift is the CoM offset change; the
+/// arm's momentum that the wheels hold vanishes at both rests.
+#[test]
+fn phase_one_conserves_the_centre_of_mass() {
+    let task = joint_space_task(OFFSETS);
+    let robot = task.robot();
+    let q0 = *task.start();
+    let mut qs = q0;
+    qs[1] += 0.3;
+    let p = Preshape::new(&q0, &qs, robot.qd_max(), 0.05, 0.01).unwrap();
+    let d = p.demand(robot);
+    // The end effector at q_s, placed with the base shifted, equals the task's own
+    // CoM-conserving end pose at q_s.
+    let f = reactionless::Frames::new(robot, &qs);
+    let direct = Pose::from_parts(
+        &(f.ee_position + nalgebra::Vector3::from(d.base_shift_m)),
+        &f.ee_rotation,
+    );
+    let conserved = task.end_pose(&qs, IDENTITY_WXYZ);
+    for i in 0..3 {
+        assert!((direct.position[i] - conserved.position[i]).abs() < 1e-12);
+    }
+}
+
+/// A target 10 m away ends at once, before any rollout, with a status that says so.
+/// Verifies RL-TWO-004.
+#[test]
+fn a_target_beyond_reach_ends_early() {
+    let base = paper_task().unwrap();
+    let target = Pose {
+        position: [12.0, 0.0, 0.0],
+        quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+    };
+    let task: Task<7, 4> =
+        Task::new(base.robot().clone(), *base.start(), target, *base.motion()).unwrap();
+    let p = plan(&task, &TwoPhaseConfig::reference(), 1).unwrap();
+    assert_eq!(p.stop, TwoPhaseStop::BeyondReach);
+    assert_eq!(p.rollouts, 0);
+    assert!(p.reach_f > 1.0);
+    assert!(!p.converged());
+}
+
+/// Wheels too weak for any phase 1 within the longest duration: refused, never converged.
+/// Verifies RL-TWO-004.
+#[test]
+fn phase_one_beyond_the_wheels_is_refused() {
+    let task = joint_space_task(OFFSETS);
+    let config = TwoPhaseConfig {
+        max_torque: 1e-4,
+        max_rollouts: 400,
+        ..TwoPhaseConfig::reference()
+    };
+    let p = plan(&task, &config, 1).unwrap();
+    assert_eq!(p.stop, TwoPhaseStop::PreshapeBounds, "{p:?}");
+    assert!(!p.converged());
+    assert!(p.rollouts <= 400 + 1);
+}
+
+#[test]
+fn bad_settings_are_typed_errors() {
+    let task = joint_space_task(OFFSETS);
+    let config = TwoPhaseConfig {
+        standoff_m: -1.0,
+        ..TwoPhaseConfig::reference()
+    };
+    assert_eq!(
+        plan(&task, &config, 1).map(|p| p.stop),
+        Err(reactionless::Error::NotPositive(
+            reactionless::Param::StandoffDistance
+        ))
+    );
+}

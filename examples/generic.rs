@@ -85,6 +85,16 @@ fn main() {
         for seed in 1..=seeds {
             let t = std::time::Instant::now();
             let p = plan(&task, &config, seed).expect("plan");
+            let wall = t.elapsed().as_secs_f64();
+            // Phase 2 flown on the truth model: its base disturbance.
+            let mut base_deg = f64::NAN;
+            if p.converged() {
+                let mut phase2 = task.clone();
+                phase2.move_start(&p.q_s).expect("q_s");
+                let mut truth = reactionless::TruthModel::new(&phase2, 10);
+                phase2.rollout(&p.eta, &mut truth).expect("phase 2");
+                base_deg = truth.max_angle().to_degrees();
+            }
             let dq = p
                 .q_s
                 .iter()
@@ -92,7 +102,7 @@ fn main() {
                 .map(|(a, b)| (a - b).abs().to_degrees())
                 .fold(0.0, f64::max);
             println!(
-                "{name}\t{seed}\t{:.1e}\t{:?}\t{}\t{}\t{:.2e}\t{:.2}\t{:.3}\t{:.3}\t{:.1}\t{:.2}",
+                "{name}\t{seed}\t{:.1e}\t{:?}\t{}\t{}\t{:.2e}\t{:.2}\t{:.3}\t{:.3}\t{:.1}\t{:.2}\t{:.2e}",
                 p.reach_f,
                 p.stop,
                 p.rollouts,
@@ -102,7 +112,8 @@ fn main() {
                 p.demand.momentum_nms,
                 p.demand.torque_nm,
                 dq,
-                t.elapsed().as_secs_f64()
+                wall,
+                base_deg
             );
             if p.stop == reactionless::TwoPhaseStop::BeyondReach {
                 let o = base

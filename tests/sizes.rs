@@ -63,3 +63,27 @@ fn documented_retime_sizes() {
     println!("Stream: {} bytes", size_of::<Stream>());
     assert!(size_of::<Stream>() <= 96);
 }
+
+/// The two-phase plan's state (docs/twophase.md, "Memory"): the plan, phase 1 and its
+/// demand. The search itself keeps its scratch on the stack (see that page).
+/// Verifies RL-CORE-005.
+#[test]
+fn documented_two_phase_sizes() {
+    use reactionless::{Demand, Preshape, TwoPhasePlan};
+    let sizes = [
+        ("Preshape<7>", size_of::<Preshape<7>>()),
+        ("Demand", size_of::<Demand>()),
+        ("TwoPhasePlan<7, 4>", size_of::<TwoPhasePlan<7, 4>>()),
+    ];
+    for (name, size) in sizes {
+        println!("{name}: {size} bytes");
+    }
+    assert_eq!(
+        sizes,
+        [
+            ("Preshape<7>", 128),
+            ("Demand", 40),
+            ("TwoPhasePlan<7, 4>", 624)
+        ]
+    );
+}

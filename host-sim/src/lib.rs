@@ -26,6 +26,7 @@ pub mod flight;
 pub mod goal;
 pub mod output;
 pub mod plots;
+pub mod preshaping;
 pub mod records;
 pub mod retiming;
 pub mod shards;

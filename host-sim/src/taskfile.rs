@@ -10,7 +10,7 @@ use crate::urdf::{self, Chain};
 use reactionless::{
     Error as CoreError, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy, Task,
 };
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// A whole task file.
@@ -40,6 +40,9 @@ pub struct TaskFile {
     /// `[dispersion]`: settings of `host-sim disperse` (see `crate::dispersion`).
     #[serde(default)]
     pub dispersion: DispersionSection,
+    /// `[preshape]`: when present, plan in two phases (spec §15, docs/twophase.md).
+    #[serde(default)]
+    pub preshape: Option<PreshapeSection>,
 }
 
 /// One number for every joint, or one per joint.
@@ -179,6 +182,60 @@ impl DispersionSection {
             )));
         }
         Ok(())
+    }
+}
+
+/// `[preshape]`: a two-phase plan (spec §15): phase 1 pre-shapes the arm from `[start]` to a
+/// start the planner chooses while the attitude control holds the base, phase 2 is the
+/// reactionless motion from there. Every key has a default, so `[preshape]` alone asks for
+/// a two-phase plan.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PreshapeSection {
+    /// Phase 1's joint acceleration limit (deg/s², > 0); its rate limit is the robot's.
+    pub qdd_max_deg_s2: f64,
+    /// Longest phase 1 (s, > 0).
+    pub max_duration_s: f64,
+    /// Angular momentum the attitude control can absorb (N m s, > 0).
+    pub max_momentum_nms: f64,
+    /// Torque the attitude control can apply (N m, > 0).
+    pub max_torque_nm: f64,
+    /// Distance the end effector keeps from the target at phase 2's start (m, ≥ 0) …
+    pub standoff_m: f64,
+    /// … or this angle from its attitude (deg, ≥ 0); either is enough.
+    pub standoff_deg: f64,
+}
+
+impl Default for PreshapeSection {
+    fn default() -> Self {
+        let c = reactionless::TwoPhaseConfig::reference();
+        Self {
+            qdd_max_deg_s2: c.qdd_max.to_degrees(),
+            max_duration_s: c.max_duration,
+            max_momentum_nms: c.max_momentum,
+            max_torque_nm: c.max_torque,
+            standoff_m: c.standoff_m,
+            standoff_deg: c.standoff_rad.to_degrees(),
+        }
+    }
+}
+
+impl PreshapeSection {
+    /// The core's settings: these bounds, phase 2's success test `tolerance` on f and the
+    /// rollout budget.
+    #[must_use]
+    pub fn config(&self, tolerance: f64, max_rollouts: u32) -> reactionless::TwoPhaseConfig {
+        reactionless::TwoPhaseConfig {
+            qdd_max: self.qdd_max_deg_s2.to_radians(),
+            max_duration: self.max_duration_s,
+            max_momentum: self.max_momentum_nms,
+            max_torque: self.max_torque_nm,
+            standoff_m: self.standoff_m,
+            standoff_rad: self.standoff_deg.to_radians(),
+            tolerance,
+            max_rollouts,
+            ..reactionless::TwoPhaseConfig::reference()
+        }
     }
 }
 
@@ -509,6 +566,13 @@ impl LoadedTask {
             .dispersion
             .validate(|key| format!("{}: [dispersion] {key}", self.path.display()))?;
         self.asked(&self.file.planner, false)?;
+        if let Some(ps) = &self.file.preshape {
+            ps.config(1e-6, 1).validate().map_err(|e| {
+                let key = e.param().and_then(|p| p.key()).unwrap_or("preshape");
+                let name = key.strip_prefix("preshape.").unwrap_or(key);
+                self.err(format!("[preshape] {name}: {e}"))
+            })?;
+        }
         let t = &self.file.target.position_m;
         if t.len() == 3 && t.iter().all(|v| v.is_finite()) {
             let distance = t.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -547,7 +611,8 @@ impl LoadedTask {
         self.file.check.max_base_disturbance_deg
     }
 
-    fn err(&self, msg: impl std::fmt::Display) -> CliError {
+    /// A bad-input error naming this task file.
+    pub fn err(&self, msg: impl std::fmt::Display) -> CliError {
         CliError::input(format!("{}: {msg}", self.path.display()))
     }
 

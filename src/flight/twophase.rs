@@ -131,7 +131,7 @@ impl TwoPhaseConfig {
                 return Err(Error::NotFinite(p));
             }
             if v < 0.0 {
-                return Err(Error::NotPositive(p));
+                return Err(Error::Negative(p));
             }
         }
         if self.max_rollouts == 0 {
@@ -323,28 +323,8 @@ impl<const N: usize, const K: usize> Best<N, K> {
         c: &TwoPhaseConfig,
         z: &Col,
     ) -> Result<bool, Error> {
-        let robot = task.robot();
         let qs = q_of::<N>(z);
-        let dt = task.motion().dt();
-        let mut p = Preshape::new(&self.q0, &qs, robot.qd_max(), c.qdd_max, dt)?;
-        let mut d = p.demand(robot);
-        for _ in 0..STRETCHES {
-            let scale =
-                (d.momentum_nms / c.max_momentum).max(libm::sqrt(d.torque_nm / c.max_torque));
-            if scale <= 1.0 {
-                break;
-            }
-            let steps = libm::ceil(f64::from(p.steps()) * scale * 1.001) + 1.0;
-            p = p.stretched(if steps < f64::from(u32::MAX) {
-                steps as u32
-            } else {
-                u32::MAX
-            });
-            d = p.demand(robot);
-        }
-        let fits = d.momentum_nms <= c.max_momentum
-            && d.torque_nm <= c.max_torque
-            && p.duration() <= c.max_duration;
+        let (p, d, fits) = fit_preshape(task, c, &qs)?;
         let o = phase2_rollout(task, phase2, z);
         self.rollouts += 1;
         if let (true, Some(o)) = (fits, o) {
@@ -445,6 +425,42 @@ fn screen<const N: usize, const K: usize>(
             }
         }
     }
+}
+
+/// Phase 1 from the task's start to `qs` (rad): the shortest quintic within the robot's
+/// rate limit and `c.qdd_max`, slowed (at most [`STRETCHES`] times, each by the ratio its
+/// demand exceeds the bounds by, since `|h_w|` scales as `1/T` and its rate as `1/T²`)
+/// until the wheels' demand on its written samples is within `c.max_momentum` and
+/// `c.max_torque`; and whether it fits those bounds and `c.max_duration`.
+///
+/// # Errors
+/// As [`Preshape::new`].
+pub fn fit_preshape<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    c: &TwoPhaseConfig,
+    qs: &[f64; N],
+) -> Result<(Preshape<N>, Demand, bool), Error> {
+    let robot = task.robot();
+    let dt = task.motion().dt();
+    let mut p = Preshape::new(task.start(), qs, robot.qd_max(), c.qdd_max, dt)?;
+    let mut d = p.demand(robot);
+    for _ in 0..STRETCHES {
+        let scale = (d.momentum_nms / c.max_momentum).max(libm::sqrt(d.torque_nm / c.max_torque));
+        if scale <= 1.0 {
+            break;
+        }
+        let steps = libm::ceil(f64::from(p.steps()) * scale * 1.001) + 1.0;
+        p = p.stretched(if steps < f64::from(u32::MAX) {
+            steps as u32
+        } else {
+            u32::MAX
+        });
+        d = p.demand(robot);
+    }
+    let fits = d.momentum_nms <= c.max_momentum
+        && d.torque_nm <= c.max_torque
+        && p.duration() <= c.max_duration;
+    Ok((p, d, fits))
 }
 
 /// Phase 2's rollout of `z` (its `q_s` clamped into the limits).

@@ -17,6 +17,12 @@
 //! differences of the written q̇, 0.5 % tolerance), rest at both ends, the end q against
 //! the original plan's (1e-9 rad), the end pose and the base disturbance (truth model).
 //!
+//! A two-phase plan (`phase1.csv` beside `phase2/`) is verified phase by phase: phase 1's
+//! written samples against a fresh phase 1 (bit for bit), its rate, acceleration and joint
+//! limits on the written q, its duration, the wheels' momentum and torque recomputed from
+//! the written samples against `[preshape]`, phase 2's frame and the standoff; then phase
+//! 2's bundle as above.
+//!
 //! Prints a table. Exit 0 if everything passes, 1 if anything fails, 2 if the directory
 //! cannot be read as a host-sim output.
 
@@ -100,6 +106,9 @@ pub fn run(dir: &Path) -> Result<(), CliError> {
 
 /// All checks of `dir`.
 pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
+    if crate::preshaping::is_two_phase(dir) {
+        return verify_two_phase(dir);
+    }
     let lt = read_bundle(dir)?;
     let summary_text = read_output_file(dir, "summary.json")?;
     let csv = read_output_file(dir, "trajectory.csv")?;
@@ -111,6 +120,23 @@ pub fn verify(dir: &Path) -> Result<Vec<Line>, CliError> {
     let summary: Summary = serde_json::from_str(&summary_text)
         .or_input(|| format!("{}: summary.json", dir.display()))?;
     with_dims!(lt.chain.dof(), verify_n, &lt, dir, &summary.eta, &csv)
+}
+
+/// A two-phase plan: phase 1 and the join ([`crate::preshaping::verify`]), then phase 2's
+/// bundle as any plan, each line prefixed by its phase.
+fn verify_two_phase(dir: &Path) -> Result<Vec<Line>, CliError> {
+    let lt = read_bundle(dir)?;
+    let p2 = crate::preshaping::phase2_dir(dir);
+    let lt2 = read_bundle(&p2)?;
+    let mut lines: Vec<Line> = crate::preshaping::verify(dir, &lt, &lt2)?
+        .into_iter()
+        .map(|(c, v, l, ok)| line(&c, v, l, ok))
+        .collect();
+    for mut l in verify(&p2)? {
+        l.check = format!("phase 2: {}", l.check);
+        lines.push(l);
+    }
+    Ok(lines)
 }
 
 /// Limits may be exceeded by this factor at a written setpoint (the 0.5 %).

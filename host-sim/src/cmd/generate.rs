@@ -8,6 +8,18 @@
 //! of the seed (`reactionless::random::Purpose::Generator`, not the planner's), so the same
 //! arguments always write the same tasks and a plan with that seed does not start from the
 //! generating η.
+//!
+//! `--kind` chooses what a target is (issue #30's generic targets):
+//! - `rollout` (the default): as above, a pose some reactionless motion from the start
+//!   reaches;
+//! - `joint`: the planner-model end pose (base attitude held, CoM fixed) at a configuration
+//!   `--distance-deg` away: every joint moved by a uniform `d/2…d` with a random sign,
+//!   reflected back about the start if that would leave its limits (by 0.5°); no rollout
+//!   made it;
+//! - `perturbed`: a rollout target as above, then moved by `--move-m` in a uniformly random
+//!   direction and turned by `--move-deg` about a uniformly random axis.
+//!
+//! `--preshape` adds a `[preshape]` table (its defaults): the tasks ask for two-phase plans.
 
 use crate::args::{List, RobotArgs, parse_list};
 use crate::error::CliError;
@@ -21,8 +33,8 @@ use reactionless::{IDENTITY_WXYZ, Motion, Pose, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-/// Write COUNT task files with reachable targets for a robot (random feasible η rolled
-/// out from the start, truth-model end pose as target).
+/// Write COUNT task files for a robot: reachable targets (random feasible η rolled out from
+/// the start, truth-model end pose as target), or generic ones (--kind joint, perturbed).
 #[derive(Debug, Clone, clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -51,6 +63,32 @@ pub struct Args {
     /// Half-width of the box η is drawn from (> 0).
     #[arg(long, default_value_t = 5.0)]
     eta_bound: f64,
+    /// What a target is: rollout, joint or perturbed (see `host-sim generate --help`).
+    #[arg(long, value_enum, default_value_t = Kind::Rollout)]
+    kind: Kind,
+    /// `--kind joint`: largest move of each joint from the start (deg, > 0).
+    #[arg(long, default_value_t = 10.0)]
+    distance_deg: f64,
+    /// `--kind perturbed`: how far the target moves (m, ≥ 0).
+    #[arg(long, default_value_t = 0.01)]
+    move_m: f64,
+    /// `--kind perturbed`: how far the target turns (deg, ≥ 0).
+    #[arg(long, default_value_t = 0.5)]
+    move_deg: f64,
+    /// Add a `[preshape]` table: the tasks ask for two-phase plans (spec §15).
+    #[arg(long)]
+    preshape: bool,
+}
+
+/// What a generated target is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Kind {
+    /// A pose a random reactionless motion from the start reaches (truth model).
+    Rollout,
+    /// The end pose at a random configuration `--distance-deg` from the start.
+    Joint,
+    /// A rollout target moved by `--move-m` and turned by `--move-deg`.
+    Perturbed,
 }
 
 /// Tries per requested task before giving up.
@@ -75,6 +113,14 @@ impl Args {
         }
         positive("--min-motion-m", self.min_motion_m)?;
         positive("--eta-bound", self.eta_bound)?;
+        positive("--distance-deg", self.distance_deg)?;
+        for (flag, v) in [("--move-m", self.move_m), ("--move-deg", self.move_deg)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(CliError::input(format!(
+                    "{flag} {v} must be a finite number >= 0"
+                )));
+            }
+        }
         let chain = self.robot.load()?;
         with_dims!(chain.dof(), generate_n, &chain, &self)
     }
@@ -86,6 +132,49 @@ fn fmt_list(v: &[f64]) -> String {
         .map(|x| ryu::Buffer::new().format(*x).to_string())
         .collect();
     format!("[{}]", items.join(", "))
+}
+
+fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// A uniformly random unit vector (rejection in the unit ball).
+fn direction(stream: &mut Stream) -> [f64; 3] {
+    for _ in 0..64 {
+        let v = [0, 1, 2].map(|_| 2.0 * stream.uniform() - 1.0);
+        let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if n > 1e-3 && n <= 1.0 {
+            return v.map(|x| x / n);
+        }
+    }
+    [1.0, 0.0, 0.0]
+}
+
+/// `pose` moved by `m` metres in a random direction and turned by `angle` rad about a
+/// random axis (inertial frame).
+fn perturb(pose: &Pose, m: f64, angle: f64, stream: &mut Stream) -> Pose {
+    let u = direction(stream);
+    let a = direction(stream);
+    let (s, c) = ((angle / 2.0).sin(), (angle / 2.0).cos());
+    let d = [c, a[0] * s, a[1] * s, a[2] * s];
+    let q = pose.quat_wxyz;
+    let mut r = [
+        d[0] * q[0] - d[1] * q[1] - d[2] * q[2] - d[3] * q[3],
+        d[0] * q[1] + d[1] * q[0] + d[2] * q[3] - d[3] * q[2],
+        d[0] * q[2] - d[1] * q[3] + d[2] * q[0] + d[3] * q[1],
+        d[0] * q[3] + d[1] * q[2] - d[2] * q[1] + d[3] * q[0],
+    ];
+    if r[0] < 0.0 {
+        r = r.map(|x| -x);
+    }
+    Pose {
+        position: [0, 1, 2].map(|i| pose.position[i] + m * u[i]),
+        quat_wxyz: r,
+    }
 }
 
 fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result<(), CliError> {
@@ -126,6 +215,31 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
     let mut attempts = 0;
     while found.len() < o.count as usize && attempts < ATTEMPTS_PER_TASK * o.count {
         attempts += 1;
+        if o.kind == Kind::Joint {
+            let mut q = q0;
+            let (lo, hi) = (probe.robot().lower(), probe.robot().upper());
+            let edge = 0.5f64.to_radians();
+            for (j, v) in q.iter_mut().enumerate() {
+                let sign = if stream.uniform() < 0.5 { -1.0 } else { 1.0 };
+                let d = sign * o.distance_deg.to_radians() * (0.5 + 0.5 * stream.uniform());
+                *v += d;
+                if *v < lo[j] + edge || *v > hi[j] - edge {
+                    *v -= 2.0 * d;
+                }
+            }
+            let inside = q
+                .iter()
+                .enumerate()
+                .all(|(j, v)| *v >= lo[j] + edge && *v <= hi[j] - edge);
+            if !inside {
+                continue;
+            }
+            let end = probe.end_pose(&q, IDENTITY_WXYZ);
+            let moved = distance(&end.position, &start);
+            let deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+            found.push((deg, end, moved));
+            continue;
+        }
         let mut eta = [[0.0; 2]; K];
         for v in eta.iter_mut().flatten() {
             *v = o.eta_bound * (2.0 * stream.uniform() - 1.0);
@@ -134,17 +248,17 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
         let Ok(out) = probe.rollout(&eta, &mut truth) else {
             continue;
         };
-        let Some(end) = truth.end_pose() else {
+        let Some(mut end) = truth.end_pose() else {
             continue;
         };
-        let moved = end
-            .position
-            .iter()
-            .zip(&start)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-            .sqrt();
-        if out.phi == 0.0 && truth.error().is_none() && moved >= o.min_motion_m {
+        if out.phi == 0.0
+            && truth.error().is_none()
+            && distance(&end.position, &start) >= o.min_motion_m
+        {
+            if o.kind == Kind::Perturbed {
+                end = perturb(&end, o.move_m, o.move_deg.to_radians(), &mut stream);
+            }
+            let moved = distance(&end.position, &start);
             found.push((eta.iter().flatten().copied().collect(), end, moved));
         }
     }
@@ -159,15 +273,29 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
     let urdf_rel = relative_text(&o.out, &o.robot.urdf)?;
     for (k, (eta, target, moved)) in found.iter().enumerate() {
         let mut t = String::new();
+        let how = match o.kind {
+            Kind::Rollout => format!(
+                "a reachable target made by\n# rolling out eta = {} from the start\n# (truth model, {TRUTH_SUBSTEPS} sub-steps",
+                fmt_list(eta)
+            ),
+            Kind::Joint => format!(
+                "a generic target: the end pose\n# (base attitude held, CoM fixed) at q_deg = {}\n# ({} deg per joint at most from the start",
+                fmt_list(eta),
+                ryu::Buffer::new().format(o.distance_deg)
+            ),
+            Kind::Perturbed => format!(
+                "a generic target: the pose\n# reached by rolling out eta = {} from the start (truth model), moved by {} m\n# and turned by {} deg (random direction and axis",
+                fmt_list(eta),
+                ryu::Buffer::new().format(o.move_m),
+                ryu::Buffer::new().format(o.move_deg)
+            ),
+        };
         let _ = writeln!(
             t,
-            "# Generated by host-sim generate (seed {}, task {} of {}): a reachable target made by\n\
-             # rolling out eta = {} from the start\n\
-             # (truth model, {TRUTH_SUBSTEPS} sub-steps; end effector moved {moved:.3} m).\n",
+            "# Generated by host-sim generate (seed {}, task {} of {}): {how}; end effector {moved:.3} m from its start).\n",
             o.seed,
             k + 1,
             o.count,
-            fmt_list(eta)
         );
         let _ = writeln!(t, "[robot]\nurdf = {urdf_rel:?}");
         if let Some(ee) = &o.robot.ee {
@@ -188,6 +316,12 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
             ryu::Buffer::new().format(o.tf_s),
             ryu::Buffer::new().format(o.dt_s)
         );
+        if o.preshape {
+            let _ = writeln!(
+                t,
+                "\n[preshape]  # plan in two phases (spec §15); every key has a default"
+            );
+        }
         dir.write(&format!("task_{:03}.toml", k + 1), t.as_bytes())?;
     }
     let path = dir.commit()?;

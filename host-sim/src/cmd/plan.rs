@@ -5,6 +5,9 @@
 //!
 //! The trajectory is the plan's η rolled out again by the same code; it must reproduce the
 //! outcome the planner evaluated bit for bit (checked here, so a mismatch is never written).
+//!
+//! A task with a `[preshape]` table is planned in two phases instead
+//! ([`crate::preshaping`]: `plan.json`, `phase1.csv` and phase 2's bundle in `phase2/`).
 //! Exit code 0 converged (what was asked is met), 1 not converged (outputs still written),
 //! 2 bad input.
 
@@ -130,6 +133,16 @@ impl Args {
 
 fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result<(), CliError> {
     let (config, asked) = lt.plan_settings(HOST_CAPACITY, &args.planning.overrides())?;
+    if let Some(section) = &lt.file.preshape {
+        if args.retime {
+            return Err(CliError::input(
+                "--retime: a two-phase plan is re-timed phase by phase: retime OUT/phase2",
+            ));
+        }
+        return crate::preshaping::plan::<N, K>(
+            lt, section, &config, &asked, &args.out, args.plots,
+        );
+    }
     let task = lt.task::<N, K>()?;
     let done = drive::plan::<N, K>(lt, config, true)?;
     let p = done.plan;

@@ -17,12 +17,12 @@
 //! `q_s` is written in degrees; the plan is re-evaluated from the `q_s` that the written
 //! degrees give back, so every file agrees to the bit with what a reader re-computes.
 
-use crate::artifacts::{PoseJson, summary, write_bundle, write_rollout};
+use crate::artifacts::{PoseJson, TruthReport, summary, write_bundle, write_rollout};
 use crate::error::{CliError, Context};
 use crate::goal::{Asked, number, status_name};
 use crate::output::{CsvSink, OutDir, read_trajectory_csv};
 use crate::taskfile::{self, LoadedTask, PreshapeSection};
-use reactionless::twophase::{TwoPhaseStop, fit_preshape, plan as plan_two_phase};
+use reactionless::twophase::{TwoPhasePlan, TwoPhaseStop, fit_preshape, plan as plan_two_phase};
 use reactionless::{Frames, Momentum, PlannerConfig, Sample};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -293,6 +293,41 @@ fn human_summary(lt: &LoadedTask, j: &TwoPhaseJson, dir: &Path) -> String {
         dir.display()
     ));
     s
+}
+
+/// A two-phase plan of `lt` in memory (for `campaign`): the plan, phase 2 flown on the
+/// truth model (from `q_s` as planned), whether it met what was asked, and the wall time
+/// of planning (s).
+pub fn plan_in_memory<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    section: &PreshapeSection,
+    config: &PlannerConfig,
+    asked: &Asked,
+) -> Result<(TwoPhasePlan<N, K>, Option<TruthReport>, bool, f64), CliError> {
+    let task = lt.task::<N, K>()?;
+    let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
+    let tp = section.config(tolerance, config.max_rollouts);
+    let clock = std::time::Instant::now();
+    let p = plan_two_phase(&task, &tp, config.seed)
+        .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
+    let wall = clock.elapsed().as_secs_f64();
+    let truth = match p.outcome {
+        Some(_) => {
+            let mut task2 = task.clone();
+            task2
+                .move_start(&p.q_s)
+                .map_err(|e| CliError::internal(format!("phase 2's start: {e}")))?;
+            Some(write_rollout(&task2, &p.eta, None, false)?.truth)
+        }
+        None => None,
+    };
+    let converged = p.converged();
+    Ok((p, truth, converged, wall))
+}
+
+/// The name of how a two-phase plan ended.
+pub fn stop_name_of(s: TwoPhaseStop) -> &'static str {
+    stop_name(s)
 }
 
 /// One verified item of a two-phase directory: what, found, allowed, passed.

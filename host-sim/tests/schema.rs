@@ -22,6 +22,10 @@ fn schemas() -> Vec<(&'static str, Value)> {
     let v = |s: schemars::Schema| serde_json::to_value(s).unwrap();
     vec![
         ("plan", v(schema_for!(host_sim::cmd::plan::PlanJson))),
+        (
+            "plan-two-phase",
+            v(schema_for!(host_sim::preshaping::TwoPhaseJson)),
+        ),
         ("summary", v(schema_for!(host_sim::artifacts::Summary))),
         ("retime", v(schema_for!(host_sim::retiming::RetimeSummary))),
         ("record", v(schema_for!(host_sim::records::Record))),

@@ -26,6 +26,31 @@ fn one<const N: usize, const K: usize>(
     overrides: &Overrides,
 ) -> Result<Run, CliError> {
     let (config, asked) = lt.plan_settings(HOST_CAPACITY, overrides)?;
+    if let Some(section) = &lt.file.preshape {
+        let (p, truth, converged, seconds) =
+            crate::preshaping::plan_in_memory::<N, K>(lt, section, &config, &asked)?;
+        let o = p.outcome;
+        let pick = |g: fn(&reactionless::Outcome<N>) -> f64| o.as_ref().map_or(f64::NAN, g);
+        return Ok(Run {
+            task: lt.path.display().to_string(),
+            robot: lt.chain.name.clone(),
+            strategy: "two-phase".to_string(),
+            seed: config.seed,
+            status: status_name(converged).to_string(),
+            stop: crate::preshaping::stop_name_of(p.stop).to_string(),
+            asked: asked.describe(),
+            iterations: p.starts,
+            rollouts: p.rollouts,
+            f: pick(|o| o.f),
+            phi: pick(|o| o.phi),
+            position_error_m: pick(|o| o.error.position_m()),
+            orientation_error_deg: pick(|o| o.error.orientation_deg()),
+            base_disturbance_deg: truth.as_ref().map_or(f64::NAN, |t| t.base_disturbance_deg),
+            truth_f: truth.as_ref().map_or(f64::NAN, |t| t.f),
+            sigma_e_met: o.is_some_and(|o| o.phi == 0.0 && o.f <= asked.sigma_e),
+            wall_time_s: seconds,
+        });
+    }
     let task = lt.task::<N, K>()?;
     let done = drive::plan::<N, K>(lt, config, false)?;
     let p = done.plan;

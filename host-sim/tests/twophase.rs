@@ -1,0 +1,160 @@
+//! Two-phase plans through the command line (issue #30): a task with `[preshape]` plans in
+//! two phases, `check` verifies both and catches an edited phase 1, phase 2 is an ordinary
+//! bundle, bad bounds and targets beyond reach are named, `campaign` counts them.
+//! Requirements: RL-SIM-TWO (docs/requirements.md).
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
+
+use assert_cmd::Command;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn host_sim(args: &[&std::ffi::OsStr]) -> (Option<i32>, String, String) {
+    let o = Command::cargo_bin("host-sim")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+macro_rules! args {
+    ($($a:expr),*) => { &[$(std::ffi::OsStr::new($a)),*] };
+}
+
+/// A checked-in generic target (the end pose at a configuration 20° per joint away).
+fn generic_task() -> PathBuf {
+    root().join("tests/tasks/g/chaser7/joint20/task_001.toml")
+}
+
+/// The task file with its `[preshape]` table replaced by `table` (its URDF made absolute).
+fn with_preshape(dir: &Path, table: &str) -> PathBuf {
+    let text = std::fs::read_to_string(generic_task()).unwrap();
+    let urdf = root().join("spec/chaser7.urdf");
+    let mut out = String::new();
+    for line in text.lines() {
+        if line.starts_with("urdf = ") {
+            out.push_str(&format!("urdf = {:?}\n", urdf.display().to_string()));
+        } else if line.starts_with("[preshape]") {
+            out.push_str(table);
+            out.push('\n');
+        } else {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    let path = dir.join("task.toml");
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+/// Plan, check, and the files a reader needs: phase 1 within its bounds, phase 2 at the
+/// pose and reactionless, phase 2's bundle checkable on its own; an edited phase 1 fails.
+/// Verifies RL-SIM-TWO-001, RL-SIM-TWO-002.
+#[test]
+fn a_two_phase_plan_is_written_and_checked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("p");
+    let (code, _, err) = host_sim(args!("plan", &generic_task(), "--out", &out));
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("converged in two phases"), "{err}");
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["status"], "converged");
+    let p1 = &plan["phase1"];
+    assert!(p1["momentum_nms"].as_f64().unwrap() <= p1["max_momentum_nms"].as_f64().unwrap());
+    assert!(p1["torque_nm"].as_f64().unwrap() <= p1["max_torque_nm"].as_f64().unwrap());
+    let p2 = &plan["phase2"];
+    assert!(p2["position_error_m"].as_f64().unwrap() <= 1e-6);
+    assert!(p2["orientation_error_deg"].as_f64().unwrap() <= 1e-4);
+    assert!(p2["base_disturbance_deg"].as_f64().unwrap() < 0.01);
+
+    let (code, table, err) = host_sim(args!("check", &out));
+    assert_eq!(code, Some(0), "{table}{err}");
+    assert!(table.contains("phase 1 wheels' torque"), "{table}");
+    assert!(table.contains("phase 2: base disturbance"), "{table}");
+    let (code, table, err) = host_sim(args!("check", &out.join("phase2")));
+    assert_eq!(code, Some(0), "{table}{err}");
+
+    // One written sample of phase 1 moved by 1e-3 rad: check names it.
+    let csv = std::fs::read_to_string(out.join("phase1.csv")).unwrap();
+    let mut lines: Vec<String> = csv.lines().map(String::from).collect();
+    let mid = lines.len() / 2;
+    let mut cells: Vec<String> = lines[mid].split(',').map(String::from).collect();
+    let q1: f64 = cells[1].parse().unwrap();
+    cells[1] = format!("{}", q1 + 1e-3);
+    lines[mid] = cells.join(",");
+    std::fs::write(out.join("phase1.csv"), lines.join("\n") + "\n").unwrap();
+    let (code, table, err) = host_sim(args!("check", &out));
+    assert_eq!(code, Some(1), "{table}{err}");
+    assert!(err.contains("phase 1 matches a fresh phase 1"), "{err}");
+}
+
+/// Bad `[preshape]` values are refused before planning, naming the key; a target beyond
+/// the arm's reach ends at once with a status that says so.
+/// Verifies RL-SIM-TWO-003.
+#[test]
+fn bad_bounds_and_unreachable_targets_are_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = with_preshape(tmp.path(), "[preshape]\nmax_torque_nm = -1.0");
+    let (code, _, err) = host_sim(args!("plan", &task, "--out", &tmp.path().join("p")));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("[preshape] max_torque_nm"), "{err}");
+
+    // The target 3 m further along x: outside the arm's reach from every configuration,
+    // but inside the coarse reach check of the task file.
+    let text = std::fs::read_to_string(with_preshape(tmp.path(), "[preshape]")).unwrap();
+    let far: String = text
+        .lines()
+        .map(|l| {
+            if let Some(rest) = l.strip_prefix("position_m = [") {
+                let v: Vec<f64> = rest
+                    .trim_end_matches(']')
+                    .split(',')
+                    .map(|x| x.trim().parse().unwrap())
+                    .collect();
+                format!("position_m = [{}, {}, {}]", v[0] + 0.9, v[1], v[2] - 0.9)
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let task = tmp.path().join("far.toml");
+    std::fs::write(&task, far).unwrap();
+    let out = tmp.path().join("far");
+    let (code, _, err) = host_sim(args!("plan", &task, "--out", &out));
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("beyond the arm's reach"), "{err}");
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["stop"], "beyond_reach");
+    assert_eq!(plan["rollouts"], 0);
+}
+
+/// `campaign` plans two-phase tasks in two phases and counts them by what they reached.
+/// Verifies RL-SIM-TWO-004.
+#[test]
+fn campaign_runs_two_phase_tasks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("c");
+    let (code, _, err) = host_sim(args!(
+        "campaign",
+        &generic_task(),
+        "--seeds",
+        "1..2",
+        "--out",
+        &out
+    ));
+    assert_eq!(code, Some(0), "{err}");
+    let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(runs.matches("two-phase").count(), 2, "{runs}");
+    assert_eq!(runs.matches(",converged,").count(), 2, "{runs}");
+}

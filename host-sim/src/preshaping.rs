@@ -194,7 +194,7 @@ pub fn plan<const N: usize, const K: usize>(
         let lt2 = taskfile::from_texts(&lt.path, &text, &lt.urdf_text)?;
         let task2 = lt2.task::<N, K>()?;
         let sub = OutDir::create(&dir.path(PHASE2_DIR))?;
-        let run = write_rollout(&task2, &p.eta, Some(&sub), plots)?;
+        let run = write_rollout(&task2, &p.eta, Some(&sub), false)?;
         sub.write_json(
             "summary.json",
             &summary(&task2, &p.eta, &run.outcome, &run.truth),
@@ -228,6 +228,13 @@ pub fn plan<const N: usize, const K: usize>(
         wall_time_s: wall,
     };
     dir.write_json("plan.json", &json)?;
+    if plots && json.phase2.is_some() {
+        // Both phases on one page, from the files just written (as `host-sim view DIR`).
+        dir.write(
+            "view.html",
+            crate::view::render_dir(&dir.path(""), out)?.as_bytes(),
+        )?;
+    }
     let path = dir.commit()?;
     eprintln!("{}", human_summary(lt, &json, &path));
     if converged {

@@ -84,6 +84,9 @@ pub struct ViewData {
     pub base_disturbance_deg: f64,
     /// The base-disturbance requirement (deg).
     pub base_limit_deg: f64,
+    /// A two-phase plan: the time phase 1 (attitude controlled) ends and phase 2 (free
+    /// floating) begins (s); `None` for one phase.
+    pub phase1_end_s: Option<f64>,
 }
 
 /// A position and an attitude.
@@ -155,11 +158,56 @@ fn magnification(max_deg: f64) -> f64 {
 /// The page data of output directory `dir` (see the module doc); the page names the
 /// directory `shown` (plan and rollout write into a temporary directory first).
 pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
+    if crate::preshaping::is_two_phase(dir) {
+        return data_of_two_phase(dir, shown);
+    }
     let lt = read_bundle(dir)?;
     let summary: Summary = serde_json::from_str(&read_output_file(dir, "summary.json")?)
         .or_input(|| format!("{}: summary.json", dir.display()))?;
     let csv = read_output_file(dir, "trajectory.csv")?;
     with_dims!(lt.chain.dof(), data_n, &lt, dir, shown, &summary, &csv)
+}
+
+/// A two-phase plan's page: phase 1 (`phase1.csv`, base attitude held) then phase 2
+/// (`phase2/trajectory.csv`, truth model), both drawn in the task's inertial frame (the
+/// CoM of `t = 0` stays put through both), phase 2's times after phase 1's.
+fn data_of_two_phase(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
+    let lt = read_bundle(dir)?;
+    let p2 = crate::preshaping::phase2_dir(dir);
+    let lt2 = read_bundle(&p2)?;
+    let csv1 = read_output_file(dir, crate::preshaping::PHASE1_CSV)?;
+    let csv2 = read_output_file(&p2, "trajectory.csv")?;
+    with_dims!(
+        lt.chain.dof(),
+        two_phase_n,
+        &lt,
+        &lt2,
+        dir,
+        shown,
+        &csv1,
+        &csv2
+    )
+}
+
+fn two_phase_n<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    lt2: &LoadedTask,
+    dir: &Path,
+    shown: &Path,
+    csv1: &str,
+    csv2: &str,
+) -> Result<ViewData, CliError> {
+    let task: Task<N, K> = lt.task::<N, K>()?;
+    let task2: Task<N, K> = lt2.task::<N, K>()?;
+    let phase1 = read_trajectory_csv::<N>(dir, csv1)?;
+    let phase2 = read_trajectory_csv::<N>(&crate::preshaping::phase2_dir(dir), csv2)?;
+    if phase1.last().map(|s| s.q) != phase2.first().map(|s| s.q) {
+        return Err(CliError::input(format!(
+            "{}: phase 1 does not end where phase 2 starts (files from different runs?)",
+            dir.display()
+        )));
+    }
+    build(lt, &task, &phase1, &phase2, &task2, shown)
 }
 
 fn data_n<const N: usize, const K: usize>(
@@ -171,29 +219,95 @@ fn data_n<const N: usize, const K: usize>(
 ) -> Result<ViewData, CliError> {
     let task: Task<N, K> = lt.task::<N, K>()?;
     let samples = read_trajectory_csv::<N>(dir, csv)?;
-    if samples.is_empty() {
+    let data = build(lt, &task, &[], &samples, &task, shown)?;
+    let last = data.ee.last().copied().unwrap_or([f64::NAN; 3]);
+    if last != summary.end_pose.position {
+        return Err(CliError::input(format!(
+            "{}: the end pose of trajectory.csv's last sample, {last:?}, is not summary.json's \
+             end_pose.position {:?} (files from different runs?)",
+            dir.display(),
+            summary.end_pose.position
+        )));
+    }
+    Ok(data)
+}
+
+/// What a sample is on the page.
+#[derive(Clone, Copy)]
+enum Row {
+    /// Phase 1: base attitude held by the attitude control.
+    Held,
+    /// Phase 2's first sample, phase 1's last: for the truth model only.
+    Joint,
+    /// Free floating: the truth model's base attitude.
+    Floating,
+}
+
+/// The page's data: `held` samples with the base attitude held (phase 1 of a two-phase
+/// plan; none for one phase), then `floating` samples with the base attitude integrated by
+/// the truth model of `floating_task`; all drawn in `task`'s inertial frame (planner model:
+/// base placed by CoM conservation), the floating samples' times after the held ones.
+fn build<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    task: &Task<N, K>,
+    held: &[reactionless::Sample<N>],
+    floating: &[reactionless::Sample<N>],
+    floating_task: &Task<N, K>,
+    shown: &Path,
+) -> Result<ViewData, CliError> {
+    if floating.is_empty() {
         return Err(CliError::input(format!(
             "{}: trajectory.csv has no samples",
-            dir.display()
+            shown.display()
         )));
     }
     let robot = task.robot();
     let com0 = task.com0();
-    let mut truth = TruthModel::new(&task, TRUTH_SUBSTEPS);
-    let n = samples.len();
+    let mut truth = TruthModel::new(floating_task, TRUTH_SUBSTEPS);
+    let offset = held.last().map_or(0.0, |s| s.t);
+    let n = held.len() + floating.len();
+    let (mut t, mut q, mut qd) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
     let (mut ee, mut angle, mut wxyz, mut draw) = (
         Vec::with_capacity(n),
         Vec::with_capacity(n),
         Vec::with_capacity(n),
         Vec::with_capacity(n),
     );
-    for s in &samples {
-        truth.sample(s);
+    // Phase 2's first sample is phase 1's last: drawn once (the truth model still sees it).
+    let skip = usize::from(!held.is_empty());
+    let all = held.iter().map(|s| (s, Row::Held)).chain(
+        floating
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (s, if i < skip { Row::Joint } else { Row::Floating })),
+    );
+    for (s, kind) in all {
+        match kind {
+            Row::Held => {
+                angle.push(0.0);
+                wxyz.push(IDENTITY_WXYZ);
+                t.push(s.t);
+            }
+            Row::Joint => {
+                truth.sample(s);
+                continue;
+            }
+            Row::Floating => {
+                truth.sample(s);
+                angle.push(truth.angle().to_degrees());
+                wxyz.push(truth.attitude());
+                t.push(s.t + offset);
+            }
+        }
+        q.push(s.q.to_vec());
+        qd.push(s.qd.to_vec());
         let frames = Frames::new(robot, &s.q);
         let end = task.end_pose(&s.q, IDENTITY_WXYZ);
         ee.push(end.position);
-        angle.push(truth.angle().to_degrees());
-        wxyz.push(truth.attitude());
         // Planner model: identity base attitude, base origin p₀ = r_g(0) − r_g(q).
         let p0 = com0 - frames.com;
         let mut row = Vec::with_capacity(3 + 6 * N + 12);
@@ -211,15 +325,6 @@ fn data_n<const N: usize, const K: usize>(
     }
     if let Some(e) = truth.error() {
         return Err(CliError::failed(format!("truth model failed: {e}")));
-    }
-    let last = ee.last().copied().unwrap_or([f64::NAN; 3]);
-    if last != summary.end_pose.position {
-        return Err(CliError::input(format!(
-            "{}: the end pose of trajectory.csv's last sample, {last:?}, is not summary.json's \
-             end_pose.position {:?} (files from different runs?)",
-            dir.display(),
-            summary.end_pose.position
-        )));
     }
     let base = &robot.desc().base;
     let inertia = base.inertia.to_sym();
@@ -244,9 +349,9 @@ fn data_n<const N: usize, const K: usize>(
         lower: robot.lower().to_vec(),
         upper: robot.upper().to_vec(),
         qd_limit: lt.chain.joints.iter().map(|j| j.velocity).collect(),
-        t: samples.iter().map(|s| s.t).collect(),
-        q: samples.iter().map(|s| s.q.to_vec()).collect(),
-        qd: samples.iter().map(|s| s.qd.to_vec()).collect(),
+        t,
+        q,
+        qd,
         ee,
         base_angle_deg: angle,
         base_wxyz: wxyz,
@@ -263,6 +368,7 @@ fn data_n<const N: usize, const K: usize>(
         magnification: magnification(max_deg),
         base_disturbance_deg: max_deg,
         base_limit_deg: lt.max_base_disturbance_deg(),
+        phase1_end_s: (!held.is_empty()).then_some(offset),
     })
 }
 

@@ -56,7 +56,8 @@ fn with_preshape(dir: &Path, table: &str) -> PathBuf {
 }
 
 /// Plan, check, and the files a reader needs: phase 1 within its bounds, phase 2 at the
-/// pose and reactionless, phase 2's bundle checkable on its own; an edited phase 1 fails.
+/// pose and reactionless, phase 2's bundle checkable on its own, both phases on the replay
+/// page; an edited phase 1 fails.
 /// Verifies RL-SIM-TWO-001, RL-SIM-TWO-002.
 #[test]
 fn a_two_phase_plan_is_written_and_checked() {
@@ -82,6 +83,17 @@ fn a_two_phase_plan_is_written_and_checked() {
     assert!(table.contains("phase 2: base disturbance"), "{table}");
     let (code, table, err) = host_sim(args!("check", &out.join("phase2")));
     assert_eq!(code, Some(0), "{table}{err}");
+
+    // The replay page draws both phases: phase 1's samples, then phase 2's after them.
+    let page = tmp.path().join("view.html");
+    let (code, _, err) = host_sim(args!("view", &out, "--out", &page));
+    assert_eq!(code, Some(0), "{err}");
+    let html = std::fs::read_to_string(&page).unwrap();
+    let t1 = p1["duration_s"].as_f64().unwrap();
+    assert!(
+        html.contains(&format!("\"phase1_end_s\":{t1}")),
+        "phase1_end_s {t1}"
+    );
 
     // One written sample of phase 1 moved by 1e-3 rad: check names it.
     let csv = std::fs::read_to_string(out.join("phase1.csv")).unwrap();

@@ -340,11 +340,19 @@ impl<const N: usize, const K: usize> Best<N, K> {
 
     fn finish(self, task: &Task<N, K>, c: &TwoPhaseConfig) -> TwoPhasePlan<N, K> {
         let robot = task.robot();
-        let qs = if self.outcome.is_some() {
+        // The start phase 2 was rolled out from: z's q_s clamped into the limits.
+        let mut qs = if self.outcome.is_some() {
             q_of::<N>(&self.z)
         } else {
             self.q0
         };
+        for ((q, lo), hi) in qs
+            .iter_mut()
+            .zip(robot.lower().iter())
+            .zip(robot.upper().iter())
+        {
+            *q = q.max(*lo).min(*hi);
+        }
         let dt = task.motion().dt();
         let (preshape, demand) = self.preshape.unwrap_or_else(|| {
             let p = Preshape::new(&self.q0, &qs, robot.qd_max(), c.qdd_max, dt)

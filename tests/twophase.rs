@@ -152,7 +152,7 @@ fn bad_settings_are_typed_errors() {
     };
     assert_eq!(
         plan(&task, &config, 1).map(|p| p.stop),
-        Err(reactionless::Error::NotPositive(
+        Err(reactionless::Error::Negative(
             reactionless::Param::StandoffDistance
         ))
     );

@@ -23,7 +23,9 @@
 //! the joint-limit excess `p` of phase 2's path beyond the margin (as the multistart's),
 //! the standoff shortfall `s = max(0, standoff_m − ‖p_ee(q_s) − p_target‖)` while the angle
 //! to the target is below the standoff angle, and `d = max(0, T₁ − max_duration)/10 s` for
-//! phase 1's continuous minimum duration `T₁`. Steps solve `(J Jᵀ + μ I) y = −r`,
+//! phase 1's duration `T₁`: the larger of its continuous minimum under the rate and
+//! acceleration limits and 1.05 times the wheels' estimate ([`Preshape::wheel_duration`],
+//! 32 points), so the search prefers starts the wheels can serve in time. Steps solve `(J Jᵀ + μ I) y = −r`,
 //! `δ = Jᵀ y` (the minimum-norm LM step, `μ = λ·max diag JᵀJ`), `J` by forward differences
 //! and rank-1 Broyden corrections between rebuilds; `λ` as the multistart's (Nielsen).
 //! A start ends when `‖r‖` has not halved within `4(N + 2K) + 8` rollouts.
@@ -32,7 +34,9 @@
 //! bounds ([`TwoPhaseStop::Converged`]); phase 1 is then slowed, if needed, until the
 //! wheels' momentum and torque demand on its written samples is within the task's bounds
 //! (both scale as `1/T` and `1/T²`); a plan that needs longer than `max_duration` for that
-//! is refused ([`TwoPhaseStop::PreshapeBounds`]) and the next start tried. Otherwise after
+//! is refused and the next start tried; after three starts that end (converged and
+//! refused, or stalled) where phase 1 needs longer than the longest allowed, the search
+//! ends [`TwoPhaseStop::PreshapeBounds`]. Otherwise after
 //! `max_rollouts` rollouts ([`TwoPhaseStop::Exhausted`], the closest plan reached).
 //!
 //! Loops are bounded by the rollout budget and constants; nothing allocates. Sizes:
@@ -58,13 +62,20 @@ const LAMBDA_MAX: f64 = 1e10;
 /// Smallest damping.
 const LAMBDA_MIN: f64 = 1e-15;
 /// Kinematic-inverse starts (the task's start, then random configurations).
-const IK_STARTS: u32 = 16;
+const IK_STARTS: u32 = 64;
 /// Iterations per kinematic-inverse start.
 const IK_ITERATIONS: u32 = 200;
 /// Directions per screening batch.
 const SCREEN: usize = 8;
 /// LM starts taken from each batch, the shortest pre-shapes first.
 const STARTS_PER_SCREEN: usize = 3;
+/// Points of phase 1's path at which the search estimates the wheels' demand.
+const WHEEL_POINTS: u32 = 32;
+/// The search asks for phase 1 to fit its bounds with this much to spare on the estimate.
+const WHEEL_MARGIN: f64 = 1.05;
+/// Starts that end where phase 1 needs longer than the longest allowed, after which the
+/// search ends [`TwoPhaseStop::PreshapeBounds`].
+const REFUSED_STARTS: u32 = 3;
 /// Slow-downs of phase 1 tried to meet the wheels' bounds.
 const STRETCHES: u32 = 4;
 
@@ -215,6 +226,7 @@ pub fn plan<const N: usize, const K: usize>(
     let nr = 6 + N + 2;
     let patience = 4 * nz as u32 + 8;
     let mut refused = false;
+    let mut refused_starts = 0u32;
     let mut pool = [([0.0; MAX_Z], f64::INFINITY); SCREEN];
     let mut next = STARTS_PER_SCREEN;
     while best.rollouts < config.max_rollouts {
@@ -246,13 +258,25 @@ pub fn plan<const N: usize, const K: usize>(
         let budget = config.max_rollouts;
         let (found, zf) = lm.run(&z, &mut eval, &mut best.rollouts, budget);
         let Some(found) = found else {
-            best.consider(task, &mut phase2, config, &zf);
+            if best.consider(task, &mut phase2, config, &zf) {
+                refused_starts += 1;
+                refused = true;
+                if refused_starts >= REFUSED_STARTS {
+                    break;
+                }
+            }
             continue;
         };
         // Phase 1 within the wheels' bounds, or the next start.
         match best.accept(task, &mut phase2, config, &found) {
             Ok(true) => return Ok(best.finish(task, config)),
-            Ok(false) => refused = true,
+            Ok(false) => {
+                refused = true;
+                refused_starts += 1;
+                if refused_starts >= REFUSED_STARTS {
+                    break;
+                }
+            }
             Err(e) => return Err(e),
         }
     }
@@ -293,26 +317,30 @@ impl<const N: usize, const K: usize> Best<N, K> {
         })
     }
 
-    /// Records `z`'s rollout if it is the closest yet (one rollout).
+    /// Records `z`'s rollout if it is the closest yet (one rollout); whether the start
+    /// ended where phase 1 needs longer than the longest allowed (the bounds, not the pose,
+    /// stopped it).
     fn consider(
         &mut self,
         task: &Task<N, K>,
         phase2: &mut Task<N, K>,
         c: &TwoPhaseConfig,
         z: &Col,
-    ) {
+    ) -> bool {
         if self.rollouts >= c.max_rollouts {
-            return;
+            return false;
         }
         self.rollouts += 1;
-        if let Some(o) = phase2_rollout(task, phase2, z) {
-            let score = o.f + o.phi;
-            if score < self.f {
-                self.f = score;
-                self.z = *z;
-                self.outcome = Some(o);
-            }
+        let Some(o) = phase2_rollout(task, phase2, z) else {
+            return false;
+        };
+        let score = o.f + o.phi;
+        if score < self.f {
+            self.f = score;
+            self.z = *z;
+            self.outcome = Some(o);
         }
+        phase1_duration(task, c, &q_of::<N>(z)) > c.max_duration
     }
 
     /// A converged `z`: fits phase 1 to the wheels' bounds; `Ok(true)` if it fits.
@@ -490,6 +518,27 @@ fn phase2_rollout<const N: usize, const K: usize>(
     phase2.rollout(&to_eta::<K>(z, N), &mut ()).ok()
 }
 
+/// Phase 1's duration as the search sees it (s): the larger of its continuous minimum under
+/// the rate and acceleration limits and [`WHEEL_MARGIN`] times the wheels' estimate.
+fn phase1_duration<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    c: &TwoPhaseConfig,
+    qs: &[f64; N],
+) -> f64 {
+    let robot = task.robot();
+    Preshape::min_duration(task.start(), qs, robot.qd_max(), c.qdd_max).max(
+        WHEEL_MARGIN
+            * Preshape::wheel_duration(
+                robot,
+                task.start(),
+                qs,
+                c.max_momentum,
+                c.max_torque,
+                WHEEL_POINTS,
+            ),
+    )
+}
+
 /// The residual of `z` and whether it meets the goal (one rollout).
 fn evaluate<const N: usize, const K: usize>(
     task: &Task<N, K>,
@@ -518,7 +567,7 @@ fn evaluate<const N: usize, const K: usize>(
     let start = phase2.start_pose();
     let target = task.target();
     let standoff = standoff_shortfall(start, target, c);
-    let t1 = Preshape::min_duration(task.start(), &qs_raw, robot.qd_max(), c.qdd_max);
+    let t1 = phase1_duration(task, c, &qs_raw);
     let over = (t1 - c.max_duration).max(0.0) / 10.0;
     if let Some(v) = r.get_mut(6 + N) {
         *v = standoff;

@@ -126,6 +126,50 @@ impl<const N: usize> Preshape<N> {
         duration
     }
 
+    /// The shortest duration (s) at which the wheels' demand stays within `max_momentum`
+    /// (N m s) and `max_torque` (N m), estimated on `points` (≥ 2) evenly spaced points of
+    /// the path shape: with `g(u) = H~bm(q(u)) Δ s'(u)`, `h_w = −g/T` and `ḣ_w = −g'/T²`,
+    /// so `T ≥ max|g|/max_momentum` and `T ≥ √(max|g'|/max_torque)` (`g'` by differences
+    /// between the points). A smooth measure for a search; [`Preshape::demand`] is exact on
+    /// the written samples.
+    #[must_use]
+    pub fn wheel_duration(
+        robot: &Robot<N>,
+        q0: &[f64; N],
+        qs: &[f64; N],
+        max_momentum: f64,
+        max_torque: f64,
+        points: u32,
+    ) -> f64 {
+        let points = points.max(2);
+        let (mut g_max, mut dg_max) = (0.0f64, 0.0f64);
+        let mut last = [0.0f64; 3];
+        for k in 0..=points {
+            let u = f64::from(k) / f64::from(points);
+            let s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
+            let ds = 30.0 * u * u * (1.0 - u) * (1.0 - u);
+            let mut q = *q0;
+            let mut qd = [0.0; N];
+            for ((q, qd), (a, b)) in q
+                .iter_mut()
+                .zip(qd.iter_mut())
+                .zip(q0.iter().zip(qs.iter()))
+            {
+                *q = a + (b - a) * s;
+                *qd = (b - a) * ds;
+            }
+            let g = Momentum::new(robot, &Frames::new(robot, &q)).coupling_momentum(&qd);
+            let g = [g.x, g.y, g.z];
+            g_max = g_max.max(norm3(&g));
+            if k > 0 {
+                let d = [g[0] - last[0], g[1] - last[1], g[2] - last[2]];
+                dg_max = dg_max.max(norm3(&d) * f64::from(points));
+            }
+            last = g;
+        }
+        (g_max / max_momentum).max(libm::sqrt(dg_max / max_torque))
+    }
+
     /// Integration steps `S₁` (`S₁ + 1` samples; 0 when `q_s = q₀`).
     #[must_use]
     pub fn steps(&self) -> u32 {

@@ -75,7 +75,7 @@ const WHEEL_POINTS: u32 = 32;
 const WHEEL_MARGIN: f64 = 1.05;
 /// Starts that end where phase 1 needs longer than the longest allowed, after which the
 /// search ends [`TwoPhaseStop::PreshapeBounds`].
-const REFUSED_STARTS: u32 = 3;
+const REFUSED_STARTS: u32 = 8;
 /// Slow-downs of phase 1 tried to meet the wheels' bounds.
 const STRETCHES: u32 = 4;
 

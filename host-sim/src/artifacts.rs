@@ -1,5 +1,5 @@
 //! What `plan` and `rollout` write: the trajectory, the summary, the task bundle and the
-//! figures of one η.
+//! figures of one η; the names of a two-phase plan's files.
 //!
 //! Owns the files of an output directory: `trajectory.csv` (every sample, s / rad /
 //! rad/s, through [`CsvSink`]), `summary.json` ([`Summary`], read back by `check`), the
@@ -17,6 +17,21 @@ use reactionless::{
     TruthModel,
 };
 use serde::{Deserialize, Serialize};
+
+/// Phase 2's sub-directory of a two-phase plan ([`crate::preshaping`]).
+pub const PHASE2_DIR: &str = "phase2";
+/// Phase 1's samples of a two-phase plan.
+pub const PHASE1_CSV: &str = "phase1.csv";
+
+/// Whether output directory `dir` holds a two-phase plan.
+pub fn is_two_phase(dir: &std::path::Path) -> bool {
+    dir.join(PHASE1_CSV).is_file()
+}
+
+/// Phase 2's directory inside a two-phase plan's `dir`.
+pub fn phase2_dir(dir: &std::path::Path) -> std::path::PathBuf {
+    dir.join(PHASE2_DIR)
+}
 
 /// `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]

@@ -25,12 +25,9 @@ use crate::taskfile::{self, LoadedTask, PreshapeSection};
 use reactionless::twophase::{TwoPhasePlan, TwoPhaseStop, fit_preshape, plan as plan_two_phase};
 use reactionless::{Frames, Momentum, PlannerConfig, Sample};
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// Phase 2's sub-directory.
-pub const PHASE2_DIR: &str = "phase2";
-/// Phase 1's samples.
-pub const PHASE1_CSV: &str = "phase1.csv";
+pub use crate::artifacts::{PHASE1_CSV, PHASE2_DIR, is_two_phase, phase2_dir};
 
 /// `plan.json` of a two-phase plan.
 #[derive(Serialize, schemars::JsonSchema)]
@@ -505,14 +502,4 @@ fn verify_n<const N: usize, const K: usize>(
 
 fn norm(v: &[f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-/// Whether `dir` holds a two-phase plan.
-pub fn is_two_phase(dir: &Path) -> bool {
-    dir.join(PHASE1_CSV).is_file()
-}
-
-/// Phase 2's directory inside `dir`.
-pub fn phase2_dir(dir: &Path) -> PathBuf {
-    dir.join(PHASE2_DIR)
 }

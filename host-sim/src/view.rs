@@ -158,7 +158,7 @@ fn magnification(max_deg: f64) -> f64 {
 /// The page data of output directory `dir` (see the module doc); the page names the
 /// directory `shown` (plan and rollout write into a temporary directory first).
 pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
-    if crate::preshaping::is_two_phase(dir) {
+    if crate::artifacts::is_two_phase(dir) {
         return data_of_two_phase(dir, shown);
     }
     let lt = read_bundle(dir)?;
@@ -173,9 +173,9 @@ pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
 /// CoM of `t = 0` stays put through both), phase 2's times after phase 1's.
 fn data_of_two_phase(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
     let lt = read_bundle(dir)?;
-    let p2 = crate::preshaping::phase2_dir(dir);
+    let p2 = crate::artifacts::phase2_dir(dir);
     let lt2 = read_bundle(&p2)?;
-    let csv1 = read_output_file(dir, crate::preshaping::PHASE1_CSV)?;
+    let csv1 = read_output_file(dir, crate::artifacts::PHASE1_CSV)?;
     let csv2 = read_output_file(&p2, "trajectory.csv")?;
     with_dims!(
         lt.chain.dof(),
@@ -200,7 +200,7 @@ fn two_phase_n<const N: usize, const K: usize>(
     let task: Task<N, K> = lt.task::<N, K>()?;
     let task2: Task<N, K> = lt2.task::<N, K>()?;
     let phase1 = read_trajectory_csv::<N>(dir, csv1)?;
-    let phase2 = read_trajectory_csv::<N>(&crate::preshaping::phase2_dir(dir), csv2)?;
+    let phase2 = read_trajectory_csv::<N>(&crate::artifacts::phase2_dir(dir), csv2)?;
     if phase1.last().map(|s| s.q) != phase2.first().map(|s| s.q) {
         return Err(CliError::input(format!(
             "{}: phase 1 does not end where phase 2 starts (files from different runs?)",

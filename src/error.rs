@@ -102,6 +102,8 @@ pub enum Param {
     StandoffDistance,
     /// Standoff angle at the start of phase 2 (rad).
     StandoffAngle,
+    /// Largest acceptable base rotation of a plan on the truth model (rad).
+    BaseDisturbance,
 }
 
 impl Param {
@@ -149,6 +151,7 @@ impl Param {
             Param::WheelTorque => "preshape.max_torque_nm",
             Param::StandoffDistance => "preshape.standoff_m",
             Param::StandoffAngle => "preshape.standoff_deg",
+            Param::BaseDisturbance => "check.max_base_disturbance_deg",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -369,6 +372,7 @@ impl fmt::Display for Param {
             Param::WheelTorque => f.write_str("attitude-control torque capacity"),
             Param::StandoffDistance => f.write_str("standoff distance"),
             Param::StandoffAngle => f.write_str("standoff angle"),
+            Param::BaseDisturbance => f.write_str("base disturbance limit"),
         }
     }
 }

@@ -83,7 +83,7 @@ fn documented_two_phase_sizes() {
         [
             ("Preshape<7>", 128),
             ("Demand", 40),
-            ("TwoPhasePlan<7, 4>", 624)
+            ("TwoPhasePlan<7, 4>", 632)
         ]
     );
 }

@@ -48,6 +48,11 @@ fn a_joint_space_target_is_reached_in_two_phases() {
     assert_eq!(again, o, "phase 2 replays bit for bit");
     let deg = truth.max_angle().to_degrees();
     assert!(deg < 0.01, "phase-2 base disturbance {deg}°");
+    assert_eq!(
+        truth.max_angle(),
+        p.base_disturbance,
+        "the plan reports what it flew"
+    );
 
     // Phase 1: the written samples keep the limits; the demand is within the bounds.
     let robot = task.robot();

@@ -138,7 +138,11 @@ pub fn plan<const N: usize, const K: usize>(
 ) -> Result<(), CliError> {
     let task = lt.task::<N, K>()?;
     let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
-    let tp = section.config(tolerance, config.max_rollouts);
+    let tp = section.config(
+        tolerance,
+        config.max_rollouts,
+        lt.max_base_disturbance_deg(),
+    );
     eprintln!(
         "plan: two phases ([preshape]): reach check, then up to {} rollouts …",
         tp.max_rollouts
@@ -310,7 +314,11 @@ pub fn plan_in_memory<const N: usize, const K: usize>(
 ) -> Result<(TwoPhasePlan<N, K>, Option<TruthReport>, bool, f64), CliError> {
     let task = lt.task::<N, K>()?;
     let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
-    let tp = section.config(tolerance, config.max_rollouts);
+    let tp = section.config(
+        tolerance,
+        config.max_rollouts,
+        lt.max_base_disturbance_deg(),
+    );
     let clock = std::time::Instant::now();
     let p = plan_two_phase(&task, &tp, config.seed)
         .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
@@ -353,7 +361,7 @@ fn verify_n<const N: usize, const K: usize>(
     })?;
     let task = lt.task::<N, K>()?;
     let task2 = lt2.task::<N, K>()?;
-    let tp = section.config(1e-6, 1);
+    let tp = section.config(1e-6, 1, lt.max_base_disturbance_deg());
     let csv = std::fs::read_to_string(dir.join(PHASE1_CSV))
         .or_input(|| format!("{}: {PHASE1_CSV}", dir.display()))?;
     let written = read_trajectory_csv::<N>(&dir.join(PHASE1_CSV), &csv)?;

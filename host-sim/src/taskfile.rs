@@ -221,10 +221,15 @@ impl Default for PreshapeSection {
 }
 
 impl PreshapeSection {
-    /// The core's settings: these bounds, phase 2's success test `tolerance` on f and the
-    /// rollout budget.
+    /// The core's settings: these bounds, phase 2's success test `tolerance` on f, the
+    /// rollout budget and the base-disturbance limit (deg, `[check]`).
     #[must_use]
-    pub fn config(&self, tolerance: f64, max_rollouts: u32) -> reactionless::TwoPhaseConfig {
+    pub fn config(
+        &self,
+        tolerance: f64,
+        max_rollouts: u32,
+        max_base_disturbance_deg: f64,
+    ) -> reactionless::TwoPhaseConfig {
         reactionless::TwoPhaseConfig {
             qdd_max: self.qdd_max_deg_s2.to_radians(),
             max_duration: self.max_duration_s,
@@ -234,6 +239,7 @@ impl PreshapeSection {
             standoff_rad: self.standoff_deg.to_radians(),
             tolerance,
             max_rollouts,
+            max_base_disturbance: max_base_disturbance_deg.to_radians(),
             ..reactionless::TwoPhaseConfig::reference()
         }
     }
@@ -567,7 +573,7 @@ impl LoadedTask {
             .validate(|key| format!("{}: [dispersion] {key}", self.path.display()))?;
         self.asked(&self.file.planner, false)?;
         if let Some(ps) = &self.file.preshape {
-            ps.config(1e-6, 1).validate().map_err(|e| {
+            ps.config(1e-6, 1, 0.01).validate().map_err(|e| {
                 let key = e.param().and_then(|p| p.key()).unwrap_or("preshape");
                 let name = key.strip_prefix("preshape.").unwrap_or(key);
                 self.err(format!("[preshape] {name}: {e}"))

@@ -33,7 +33,9 @@
 //! **Done** when a rollout has `f ≤ tolerance`, `Φ = 0`, the standoff kept and `T₁` within
 //! bounds ([`TwoPhaseStop::Converged`]); phase 1 is then slowed, if needed, until the
 //! wheels' momentum and torque demand on its written samples is within the task's bounds
-//! (both scale as `1/T` and `1/T²`); a plan that needs longer than `max_duration` for that
+//! (both scale as `1/T` and `1/T²`), and phase 2 is flown on the truth model: a plan whose
+//! base turns more than `max_base_disturbance` is not accepted (the next start is tried);
+//! a plan that needs longer than `max_duration` for that
 //! is refused and the next start tried; after three starts that end (converged and
 //! refused, or stalled) where phase 1 needs longer than the longest allowed, the search
 //! ends [`TwoPhaseStop::PreshapeBounds`]. Otherwise after
@@ -50,6 +52,7 @@ use crate::random::Stream;
 use crate::rollout::Outcome;
 use crate::search::refine::solve_spd_in_place;
 use crate::task::Task;
+use crate::truth::{TRUTH_SUBSTEPS, TruthModel};
 
 /// Largest number of unknowns `N + 2K` (12 joints, K ≤ 9).
 pub const MAX_Z: usize = 30;
@@ -104,6 +107,9 @@ pub struct TwoPhaseConfig {
     pub max_rollouts: u32,
     /// Joint-limit margin where the penalty rows start (rad).
     pub margin: f64,
+    /// Largest base rotation phase 2 may cause on the truth model (rad): a plan that meets
+    /// the pose on the planner model but turns the base more is not accepted.
+    pub max_base_disturbance: f64,
 }
 
 impl TwoPhaseConfig {
@@ -121,6 +127,7 @@ impl TwoPhaseConfig {
             tolerance: 1e-6,
             max_rollouts: 8040,
             margin: 0.005,
+            max_base_disturbance: 0.01f64.to_radians(),
         }
     }
 
@@ -134,6 +141,7 @@ impl TwoPhaseConfig {
         positive(self.max_momentum, Param::WheelMomentum)?;
         positive(self.max_torque, Param::WheelTorque)?;
         positive(self.tolerance, Param::RefineTolerance)?;
+        positive(self.max_base_disturbance, Param::BaseDisturbance)?;
         for (v, p) in [
             (self.standoff_m, Param::StandoffDistance),
             (self.standoff_rad, Param::StandoffAngle),
@@ -189,6 +197,9 @@ pub struct TwoPhasePlan<const N: usize, const K: usize> {
     pub starts: u32,
     /// `f` of the kinematic inverse (how well the target lies within reach).
     pub reach_f: f64,
+    /// Phase 2's largest base rotation on the truth model (rad; NaN when not flown: only a
+    /// converged plan's is computed).
+    pub base_disturbance: f64,
     /// How it ended.
     pub stop: TwoPhaseStop,
 }
@@ -297,6 +308,7 @@ struct Best<const N: usize, const K: usize> {
     rollouts: u32,
     starts: u32,
     reach_f: f64,
+    base_disturbance: f64,
     stop: TwoPhaseStop,
     q0: [f64; N],
 }
@@ -312,6 +324,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
             rollouts: 0,
             starts: 0,
             reach_f: f64::INFINITY,
+            base_disturbance: f64::NAN,
             stop: TwoPhaseStop::Exhausted,
             q0,
         })
@@ -353,9 +366,31 @@ impl<const N: usize, const K: usize> Best<N, K> {
     ) -> Result<bool, Error> {
         let qs = q_of::<N>(z);
         let (p, d, fits) = fit_preshape(task, c, &qs)?;
-        let o = phase2_rollout(task, phase2, z);
+        if !fits {
+            return Ok(false);
+        }
+        // Phase 2 on the truth model: the plan is accepted only if the base stays put.
+        let mut qc = qs;
+        let robot = task.robot();
+        for ((q, lo), hi) in qc
+            .iter_mut()
+            .zip(robot.lower().iter())
+            .zip(robot.upper().iter())
+        {
+            *q = q.max(*lo).min(*hi);
+        }
         self.rollouts += 1;
-        if let (true, Some(o)) = (fits, o) {
+        if phase2.move_start(&qc).is_err() {
+            return Ok(false);
+        }
+        let mut truth = TruthModel::new(phase2, TRUTH_SUBSTEPS);
+        let o = phase2.rollout(&to_eta::<K>(z, N), &mut truth).ok();
+        let disturbance = truth.max_angle();
+        if truth.error().is_some() || disturbance.is_nan() || disturbance > c.max_base_disturbance {
+            return Ok(false);
+        }
+        if let Some(o) = o {
+            self.base_disturbance = disturbance;
             self.z = *z;
             self.f = o.f;
             self.outcome = Some(o);
@@ -396,6 +431,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
             rollouts: self.rollouts,
             starts: self.starts,
             reach_f: self.reach_f,
+            base_disturbance: self.base_disturbance,
             stop: self.stop,
         }
     }

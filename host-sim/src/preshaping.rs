@@ -126,6 +126,35 @@ fn phase2_text(lt: &LoadedTask, q_s_deg: &[f64], shift: &[f64; 3]) -> Result<Str
     toml::to_string(&table).or_internal(|| "writing phase 2's task")
 }
 
+/// The core's two-phase plan of `lt` with the settings the task and flags ask for: the
+/// task, those settings, the plan and the wall time of planning (s).
+fn solve<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    section: &PreshapeSection,
+    config: &PlannerConfig,
+    asked: &Asked,
+) -> Result<
+    (
+        reactionless::Task<N, K>,
+        reactionless::TwoPhaseConfig,
+        TwoPhasePlan<N, K>,
+        f64,
+    ),
+    CliError,
+> {
+    let task = lt.task::<N, K>()?;
+    let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
+    let tp = section.config(
+        tolerance,
+        config.max_rollouts,
+        lt.max_base_disturbance_deg(),
+    );
+    let clock = std::time::Instant::now();
+    let p = plan_two_phase(&task, &tp, config.seed)
+        .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
+    Ok((task, tp, p, clock.elapsed().as_secs_f64()))
+}
+
 /// `plan` of a task with `[preshape]`: plans both phases and writes the directory described
 /// in the module documentation; exit code 1 when not converged (files still written).
 pub fn plan<const N: usize, const K: usize>(
@@ -136,21 +165,12 @@ pub fn plan<const N: usize, const K: usize>(
     out: &Path,
     plots: bool,
 ) -> Result<(), CliError> {
-    let task = lt.task::<N, K>()?;
-    let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
-    let tp = section.config(
-        tolerance,
-        config.max_rollouts,
-        lt.max_base_disturbance_deg(),
-    );
     eprintln!(
         "plan: two phases ([preshape]): reach check, then up to {} rollouts …",
-        tp.max_rollouts
+        config.max_rollouts
     );
-    let clock = std::time::Instant::now();
-    let p = plan_two_phase(&task, &tp, config.seed)
-        .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
-    let wall = clock.elapsed().as_secs_f64();
+    let (task, tp, p, wall) = solve::<N, K>(lt, section, config, asked)?;
+    let tolerance = tp.tolerance;
     let dir = OutDir::create(out)?;
     write_bundle(lt, &dir, None)?;
     // q_s as the files hold it: degrees, and back.
@@ -312,17 +332,7 @@ pub fn plan_in_memory<const N: usize, const K: usize>(
     config: &PlannerConfig,
     asked: &Asked,
 ) -> Result<(TwoPhasePlan<N, K>, Option<TruthReport>, bool, f64), CliError> {
-    let task = lt.task::<N, K>()?;
-    let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
-    let tp = section.config(
-        tolerance,
-        config.max_rollouts,
-        lt.max_base_disturbance_deg(),
-    );
-    let clock = std::time::Instant::now();
-    let p = plan_two_phase(&task, &tp, config.seed)
-        .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
-    let wall = clock.elapsed().as_secs_f64();
+    let (task, _, p, wall) = solve::<N, K>(lt, section, config, asked)?;
     let truth = match p.outcome {
         Some(_) => {
             let mut task2 = task.clone();

@@ -49,6 +49,7 @@ use crate::geometry::Pose;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::preshape::{Demand, Preshape};
 use crate::random::Stream;
+use crate::retime::check_positive;
 use crate::rollout::Outcome;
 use crate::search::refine::solve_spd_in_place;
 use crate::task::Task;
@@ -136,12 +137,12 @@ impl TwoPhaseConfig {
     /// # Errors
     /// The first one that is not finite and positive (the standoffs may be 0).
     pub fn validate(&self) -> Result<(), Error> {
-        positive(self.qdd_max, Param::PreshapeAccel)?;
-        positive(self.max_duration, Param::PreshapeDuration)?;
-        positive(self.max_momentum, Param::WheelMomentum)?;
-        positive(self.max_torque, Param::WheelTorque)?;
-        positive(self.tolerance, Param::RefineTolerance)?;
-        positive(self.max_base_disturbance, Param::BaseDisturbance)?;
+        check_positive(self.qdd_max, Param::PreshapeAccel)?;
+        check_positive(self.max_duration, Param::PreshapeDuration)?;
+        check_positive(self.max_momentum, Param::WheelMomentum)?;
+        check_positive(self.max_torque, Param::WheelTorque)?;
+        check_positive(self.tolerance, Param::RefineTolerance)?;
+        check_positive(self.max_base_disturbance, Param::BaseDisturbance)?;
         for (v, p) in [
             (self.standoff_m, Param::StandoffDistance),
             (self.standoff_rad, Param::StandoffAngle),
@@ -943,14 +944,4 @@ fn to_eta<const K: usize>(z: &Col, from: usize) -> [[f64; 2]; K] {
         pair[1] = z.get(from + 2 * i + 1).copied().unwrap_or(0.0);
     }
     eta
-}
-
-fn positive(v: f64, p: Param) -> Result<(), Error> {
-    if !v.is_finite() {
-        return Err(Error::NotFinite(p));
-    }
-    if v <= 0.0 {
-        return Err(Error::NotPositive(p));
-    }
-    Ok(())
 }

@@ -23,6 +23,7 @@ use crate::error::{Error, Param};
 use crate::kinematics::Frames;
 use crate::model::Robot;
 use crate::momentum::Momentum;
+use crate::retime::check_positive;
 use crate::trajectory::MAX_STEPS;
 
 /// `max |s'(u)|` of the quintic.
@@ -66,9 +67,9 @@ impl<const N: usize> Preshape<N> {
         qdd_max: f64,
         dt: f64,
     ) -> Result<Self, Error> {
-        positive(qd_max, Param::VelocityLimit(0))?;
-        positive(qdd_max, Param::PreshapeAccel)?;
-        positive(dt, Param::TimeStep)?;
+        check_positive(qd_max, Param::VelocityLimit(0))?;
+        check_positive(qdd_max, Param::PreshapeAccel)?;
+        check_positive(dt, Param::TimeStep)?;
         let mut duration = 0.0f64;
         for (i, (a, b)) in q0.iter().zip(qs.iter()).enumerate() {
             if !(a.is_finite() && b.is_finite()) {
@@ -145,19 +146,7 @@ impl<const N: usize> Preshape<N> {
         let (mut g_max, mut dg_max) = (0.0f64, 0.0f64);
         let mut last = [0.0f64; 3];
         for k in 0..=points {
-            let u = f64::from(k) / f64::from(points);
-            let s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
-            let ds = 30.0 * u * u * (1.0 - u) * (1.0 - u);
-            let mut q = *q0;
-            let mut qd = [0.0; N];
-            for ((q, qd), (a, b)) in q
-                .iter_mut()
-                .zip(qd.iter_mut())
-                .zip(q0.iter().zip(qs.iter()))
-            {
-                *q = a + (b - a) * s;
-                *qd = (b - a) * ds;
-            }
+            let (q, qd) = quintic(q0, qs, f64::from(k) / f64::from(points));
             let g = Momentum::new(robot, &Frames::new(robot, &q)).coupling_momentum(&qd);
             let g = [g.x, g.y, g.z];
             g_max = g_max.max(norm3(&g));
@@ -196,20 +185,9 @@ impl<const N: usize> Preshape<N> {
         if self.steps == 0 || j == self.steps {
             return (self.qs, [0.0; N]);
         }
-        let u = f64::from(j) / f64::from(self.steps);
-        let s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
-        let ds = 30.0 * u * u * (1.0 - u) * (1.0 - u) / self.duration();
-        let mut q = self.q0;
-        let mut qd = [0.0; N];
-        for ((q, qd), (a, b)) in q
-            .iter_mut()
-            .zip(qd.iter_mut())
-            .zip(self.q0.iter().zip(self.qs.iter()))
-        {
-            *q = a + (b - a) * s;
-            *qd = (b - a) * ds;
-        }
-        (q, qd)
+        let (q, dq_du) = quintic(&self.q0, &self.qs, f64::from(j) / f64::from(self.steps));
+        let t = self.duration();
+        (q, dq_du.map(|v| v / t))
     }
 
     /// The attitude control's demand along the written samples (one kinematics and one
@@ -240,18 +218,25 @@ impl<const N: usize> Preshape<N> {
     }
 }
 
-fn norm3(v: &[f64; 3]) -> f64 {
-    libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+/// The quintic at `u ∈ [0, 1]`: `q = q₀ + Δ s(u)` and `dq/du = Δ s'(u)`.
+fn quintic<const N: usize>(q0: &[f64; N], qs: &[f64; N], u: f64) -> ([f64; N], [f64; N]) {
+    let s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
+    let ds = 30.0 * u * u * (1.0 - u) * (1.0 - u);
+    let mut q = *q0;
+    let mut dq = [0.0; N];
+    for ((q, dq), (a, b)) in q
+        .iter_mut()
+        .zip(dq.iter_mut())
+        .zip(q0.iter().zip(qs.iter()))
+    {
+        *q = a + (b - a) * s;
+        *dq = (b - a) * ds;
+    }
+    (q, dq)
 }
 
-fn positive(v: f64, p: Param) -> Result<(), Error> {
-    if !v.is_finite() {
-        return Err(Error::NotFinite(p));
-    }
-    if v <= 0.0 {
-        return Err(Error::NotPositive(p));
-    }
-    Ok(())
+fn norm3(v: &[f64; 3]) -> f64 {
+    libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 }
 
 #[cfg(test)]

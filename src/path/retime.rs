@@ -135,7 +135,9 @@ impl<const N: usize> Limits<N> {
     }
 }
 
-fn check_positive(v: f64, p: Param) -> Result<(), Error> {
+/// `v` finite and > 0, or the error naming `p` (also used by [`crate::preshape`] and
+/// [`crate::twophase`]).
+pub(crate) fn check_positive(v: f64, p: Param) -> Result<(), Error> {
     if !v.is_finite() {
         return Err(Error::NotFinite(p));
     }

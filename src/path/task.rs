@@ -89,16 +89,7 @@ impl<const N: usize, const K: usize> Task<N, K> {
     /// `H~bm(q_s)`; the task is then unchanged.
     pub fn move_start(&mut self, q_s: &[f64; N]) -> Result<(), Error> {
         let robot = &self.robot;
-        let limits = robot.lower().iter().zip(robot.upper().iter());
-        for (i, (q, (lo, hi))) in q_s.iter().zip(limits).enumerate() {
-            let j = (i + 1) as u8;
-            if !q.is_finite() {
-                return Err(Error::NotFinite(Param::Start(j)));
-            }
-            if q < lo || q > hi {
-                return Err(Error::StartOutsideLimits(j));
-            }
-        }
+        check_start(robot, q_s)?;
         let frames = Frames::new(robot, q_s);
         self.basis0 = Basis::initial(&coupling(robot, &frames)).map_err(rank_error(0))?;
         self.start_pose = frames.end_pose(&self.com0, IDENTITY_WXYZ);
@@ -110,16 +101,7 @@ impl<const N: usize, const K: usize> Task<N, K> {
     fn finish(&mut self, q0: [f64; N], target: Pose, motion: Motion) -> Result<(), Error> {
         let () = Dims::<N, K>::VALID;
         let robot = &self.robot;
-        let limits = robot.lower().iter().zip(robot.upper().iter());
-        for (i, (q, (lo, hi))) in q0.iter().zip(limits).enumerate() {
-            let j = (i + 1) as u8;
-            if !q.is_finite() {
-                return Err(Error::NotFinite(Param::Start(j)));
-            }
-            if q < lo || q > hi {
-                return Err(Error::StartOutsideLimits(j));
-            }
-        }
+        check_start(robot, &q0)?;
         let target = validate_pose(&target)?;
         let frames = Frames::new(robot, &q0);
         let basis0 = Basis::initial(&coupling(robot, &frames)).map_err(rank_error(0))?;
@@ -180,6 +162,21 @@ impl<const N: usize, const K: usize> Task<N, K> {
     pub fn end_pose(&self, q: &[f64; N], base_wxyz: [f64; 4]) -> Pose {
         Frames::new(&self.robot, q).end_pose(&self.com0, base_wxyz)
     }
+}
+
+/// A start configuration (rad): finite, within the joint limits.
+fn check_start<const N: usize>(robot: &Robot<N>, q: &[f64; N]) -> Result<(), Error> {
+    let limits = robot.lower().iter().zip(robot.upper().iter());
+    for (i, (q, (lo, hi))) in q.iter().zip(limits).enumerate() {
+        let j = (i + 1) as u8;
+        if !q.is_finite() {
+            return Err(Error::NotFinite(Param::Start(j)));
+        }
+        if q < lo || q > hi {
+            return Err(Error::StartOutsideLimits(j));
+        }
+    }
+    Ok(())
 }
 
 /// Checks a pose: finite numbers, quaternion within [`UNIT_TOLERANCE`] of unit length.

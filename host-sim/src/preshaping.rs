@@ -100,15 +100,6 @@ pub struct Phase2Json {
     pub dir: &'static str,
 }
 
-fn stop_name(s: TwoPhaseStop) -> &'static str {
-    match s {
-        TwoPhaseStop::Converged => "converged",
-        TwoPhaseStop::Exhausted => "exhausted",
-        TwoPhaseStop::BeyondReach => "beyond_reach",
-        TwoPhaseStop::PreshapeBounds => "preshape_bounds",
-    }
-}
-
 /// The task text of phase 2: `[start]` at `q_s_deg`, `[target]` moved by `-shift`, no
 /// `[preshape]`.
 fn phase2_text(lt: &LoadedTask, q_s_deg: &[f64], shift: &[f64; 3]) -> Result<String, CliError> {
@@ -238,7 +229,7 @@ pub fn plan<const N: usize, const K: usize>(
     }
     let json = TwoPhaseJson {
         status: status_name(converged),
-        stop: stop_name(p.stop),
+        stop: p.stop.name(),
         asked: asked.describe(),
         reach_f: p.reach_f,
         rollouts: p.rollouts,
@@ -345,11 +336,6 @@ pub fn plan_in_memory<const N: usize, const K: usize>(
     };
     let converged = p.converged();
     Ok((p, truth, converged, wall))
-}
-
-/// The name of how a two-phase plan ended.
-pub fn stop_name_of(s: TwoPhaseStop) -> &'static str {
-    stop_name(s)
 }
 
 /// One verified item of a two-phase directory: what, found, allowed, passed.

@@ -47,6 +47,7 @@
 use crate::error::{Error, Param};
 use crate::geometry::Pose;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
+use crate::model::Robot;
 use crate::preshape::{Demand, Preshape};
 use crate::random::Stream;
 use crate::retime::check_positive;
@@ -205,6 +206,19 @@ pub struct TwoPhasePlan<const N: usize, const K: usize> {
     pub stop: TwoPhaseStop,
 }
 
+impl TwoPhaseStop {
+    /// The name in outputs: `converged`, `exhausted`, `beyond_reach`, `preshape_bounds`.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            TwoPhaseStop::Converged => "converged",
+            TwoPhaseStop::Exhausted => "exhausted",
+            TwoPhaseStop::BeyondReach => "beyond_reach",
+            TwoPhaseStop::PreshapeBounds => "preshape_bounds",
+        }
+    }
+}
+
 impl<const N: usize, const K: usize> TwoPhasePlan<N, K> {
     /// Whether the plan meets what was asked.
     #[must_use]
@@ -228,7 +242,7 @@ pub fn plan<const N: usize, const K: usize>(
     let q0 = *task.start();
     let (_, reach_f) = inverse(task, config.margin, &q0, IK_STARTS, &mut stream);
     let mut phase2 = task.clone();
-    let mut best = Best::<N, K>::new(task, q0)?;
+    let mut best = Best::<N, K>::new(q0);
     best.reach_f = reach_f;
     if reach_f > REACH_TOLERANCE {
         best.stop = TwoPhaseStop::BeyondReach;
@@ -315,9 +329,8 @@ struct Best<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Best<N, K> {
-    fn new(task: &Task<N, K>, q0: [f64; N]) -> Result<Self, Error> {
-        let _ = task;
-        Ok(Self {
+    fn new(q0: [f64; N]) -> Self {
+        Self {
             z: [0.0; MAX_Z],
             f: f64::INFINITY,
             outcome: None,
@@ -328,7 +341,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
             base_disturbance: f64::NAN,
             stop: TwoPhaseStop::Exhausted,
             q0,
-        })
+        }
     }
 
     /// Records `z`'s rollout if it is the closest yet (one rollout); whether the start
@@ -371,15 +384,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
             return Ok(false);
         }
         // Phase 2 on the truth model: the plan is accepted only if the base stays put.
-        let mut qc = qs;
-        let robot = task.robot();
-        for ((q, lo), hi) in qc
-            .iter_mut()
-            .zip(robot.lower().iter())
-            .zip(robot.upper().iter())
-        {
-            *q = q.max(*lo).min(*hi);
-        }
+        let qc = clamped(task.robot(), &qs);
         self.rollouts += 1;
         if phase2.move_start(&qc).is_err() {
             return Ok(false);
@@ -405,18 +410,14 @@ impl<const N: usize, const K: usize> Best<N, K> {
     fn finish(self, task: &Task<N, K>, c: &TwoPhaseConfig) -> TwoPhasePlan<N, K> {
         let robot = task.robot();
         // The start phase 2 was rolled out from: z's q_s clamped into the limits.
-        let mut qs = if self.outcome.is_some() {
-            q_of::<N>(&self.z)
-        } else {
-            self.q0
-        };
-        for ((q, lo), hi) in qs
-            .iter_mut()
-            .zip(robot.lower().iter())
-            .zip(robot.upper().iter())
-        {
-            *q = q.max(*lo).min(*hi);
-        }
+        let qs = clamped(
+            robot,
+            &if self.outcome.is_some() {
+                q_of::<N>(&self.z)
+            } else {
+                self.q0
+            },
+        );
         let dt = task.motion().dt();
         let (preshape, demand) = self.preshape.unwrap_or_else(|| {
             let p = Preshape::new(&self.q0, &qs, robot.qd_max(), c.qdd_max, dt)
@@ -536,22 +537,28 @@ pub fn fit_preshape<const N: usize, const K: usize>(
     Ok((p, d, fits))
 }
 
-/// Phase 2's rollout of `z` (its `q_s` clamped into the limits).
-fn phase2_rollout<const N: usize, const K: usize>(
-    task: &Task<N, K>,
-    phase2: &mut Task<N, K>,
-    z: &Col,
-) -> Option<Outcome<N>> {
-    let robot = task.robot();
-    let mut qs = q_of::<N>(z);
-    for ((q, lo), hi) in qs
+/// `q` (rad) clamped into the robot's joint limits: the start phase 2 is rolled out from.
+fn clamped<const N: usize>(robot: &Robot<N>, q: &[f64; N]) -> [f64; N] {
+    let mut q = *q;
+    for ((q, lo), hi) in q
         .iter_mut()
         .zip(robot.lower().iter())
         .zip(robot.upper().iter())
     {
         *q = q.max(*lo).min(*hi);
     }
-    phase2.move_start(&qs).ok()?;
+    q
+}
+
+/// Phase 2's rollout of `z` (its `q_s` clamped into the limits).
+fn phase2_rollout<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    phase2: &mut Task<N, K>,
+    z: &Col,
+) -> Option<Outcome<N>> {
+    phase2
+        .move_start(&clamped(task.robot(), &q_of::<N>(z)))
+        .ok()?;
     phase2.rollout(&to_eta::<K>(z, N), &mut ()).ok()
 }
 

@@ -37,7 +37,7 @@ fn one<const N: usize, const K: usize>(
             strategy: "two-phase".to_string(),
             seed: config.seed,
             status: status_name(converged).to_string(),
-            stop: crate::preshaping::stop_name_of(p.stop).to_string(),
+            stop: p.stop.name().to_string(),
             asked: asked.describe(),
             iterations: p.starts,
             rollouts: p.rollouts,

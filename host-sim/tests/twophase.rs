@@ -170,3 +170,40 @@ fn campaign_runs_two_phase_tasks() {
     assert_eq!(runs.matches("two-phase").count(), 2, "{runs}");
     assert_eq!(runs.matches(",converged,").count(), 2, "{runs}");
 }
+
+/// `generate`'s generic-target flags refuse bad values before anything is written, naming
+/// the flag.
+/// Verifies RL-SIM-TWO-003.
+#[test]
+fn generate_refuses_bad_generic_flags() {
+    let tmp = tempfile::tempdir().unwrap();
+    let urdf = root().join("spec/chaser7.urdf");
+    for (flag, value) in [
+        ("--distance-deg", "0"),
+        ("--move-m", "-0.01"),
+        ("--move-deg", "nan"),
+    ] {
+        let out = tmp.path().join("g");
+        let (code, _, err) = host_sim(args!(
+            "generate",
+            "--urdf",
+            &urdf,
+            "--ee",
+            "ee",
+            "--q-deg=-90,45,0,80,-90,-45,-10",
+            "--count",
+            "1",
+            "--seed",
+            "1",
+            "--kind",
+            "joint",
+            flag,
+            value,
+            "--out",
+            &out
+        ));
+        assert_eq!(code, Some(2), "{flag} {value}: {err}");
+        assert!(err.contains(flag), "{flag}: {err}");
+        assert!(!out.exists());
+    }
+}

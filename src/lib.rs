@@ -100,6 +100,6 @@ pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
 pub use strategy::Search;
 pub use swarm::{Cost, Swarm};
 pub use task::Task;
-pub use trajectory::{MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
+pub use trajectory::{Family, MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
 pub use truth::{TRUTH_SUBSTEPS, TruthModel, TruthState};
 pub use twophase::{TwoPhaseConfig, TwoPhasePlan, TwoPhaseStop};

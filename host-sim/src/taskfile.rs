@@ -8,7 +8,8 @@ use crate::error::{CliError, Context};
 use crate::goal::{Asked, Goal};
 use crate::urdf::{self, Chain};
 use reactionless::{
-    Error as CoreError, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy, Task,
+    Error as CoreError, Family, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy,
+    Task,
 };
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -340,6 +341,31 @@ pub struct MotionSection {
     /// Time-law degree n (1..=8), default 1.
     #[serde(default = "default_n")]
     pub n: u32,
+    /// The velocity profiles η names: `"paper"` (eq. 14, the default) or
+    /// `"free_amplitude"` (the exact rate bound on the written samples and η's magnitude as
+    /// the amplitude, for targets near a fixed start's reach; see `reactionless::Family`).
+    #[serde(default)]
+    pub family: FamilyKey,
+}
+
+/// `[motion] family` as written in a task file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FamilyKey {
+    /// [`Family::Paper`].
+    #[default]
+    Paper,
+    /// [`Family::FreeAmplitude`].
+    FreeAmplitude,
+}
+
+impl From<FamilyKey> for Family {
+    fn from(k: FamilyKey) -> Self {
+        match k {
+            FamilyKey::Paper => Family::Paper,
+            FamilyKey::FreeAmplitude => Family::FreeAmplitude,
+        }
+    }
 }
 
 fn default_n() -> u32 {
@@ -657,7 +683,7 @@ impl LoadedTask {
     /// The validated motion grid.
     pub fn motion(&self) -> Result<Motion, CliError> {
         let m = &self.file.motion;
-        Motion::new(m.tf_s, m.dt_s, m.n).map_err(|e| {
+        let motion = Motion::new(m.tf_s, m.dt_s, m.n).map_err(|e| {
             let what = match e {
                 CoreError::NotFinite(Param::FinalTime)
                 | CoreError::NotPositive(Param::FinalTime) => {
@@ -680,7 +706,8 @@ impl LoadedTask {
                 other => other.to_string(),
             };
             self.err(what)
-        })
+        })?;
+        Ok(motion.with_family(m.family.into()))
     }
 
     /// Start configuration (rad), checked for length and finiteness.

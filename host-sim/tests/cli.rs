@@ -259,6 +259,11 @@ fn bad_task_files_are_named_and_write_nothing() {
         &["dt_s = -0.01"],
     );
     rejects(
+        |s| s.replace("dt_s = 0.01", "dt_s = 0.01\nfamily = \"fast\""),
+        ETA_HAT,
+        &["family", "paper", "free_amplitude"],
+    );
+    rejects(
         |s| s.replace("tf_s = 30.0", "tf_s = nan"),
         ETA_HAT,
         &["tf_s = NaN"],

@@ -355,9 +355,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         }
         self.config = config;
         self.stream = Stream::new(config.seed);
-        let started = self
-            .search
-            .start(&config, self.task.robot(), &mut self.stream);
+        let started = self.search.start(&config, &self.task, &mut self.stream);
         if let Err(e) = started {
             self.phase = Phase::Failed(e);
             return Err(e);

@@ -79,7 +79,7 @@ pub struct Outcome<const N: usize> {
     pub f: f64,
     /// Largest `|q̇_r|` over all samples and joints (rad/s).
     pub max_abs_qd: f64,
-    /// `g` of eq. 14 for the η as given.
+    /// `g` for the η as given: eq. 14's, or the motion family's ([`crate::TimeLaw::g`]).
     pub g: f64,
 }
 

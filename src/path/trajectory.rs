@@ -10,7 +10,18 @@
 //! largest `|β_i|` over the critical points in `[0, t_f]` (eqs. 11–13) and
 //! `g = Σ β_i,max / q̇_max` (eq. 14), so `|q̇_r(t)| ≤ q̇_max` for every joint.
 //!
-//! Only η's direction matters. η is first scaled by an exact power of two so that its
+//! **Families.** [`Family::Paper`] is the above, bit for bit. [`Family::FreeAmplitude`]
+//! (for tasks whose start is fixed, issue #30) keeps the same polynomials and frees the two
+//! things eq. 14 fixes: the bound is the exact one on the samples the rollout writes,
+//! `g = max_s ‖β(t_s)‖₂ / q̇_max` over `t_s = s·dt`, `s = 0 … S` (the basis columns are
+//! orthonormal, so `‖q̇_s‖₂ = ‖β(t_s)‖₂/g` and every joint keeps `|q̇| ≤ q̇_max`; eq. 14's
+//! sum over-estimates that norm by up to `√K`); and η's magnitude becomes the amplitude:
+//! `g = max(G₀, max_s ‖β(t_s)‖₂ / q̇_max)` with the fixed `G₀ = t_f^{n+2}/(4 q̇_max)`, so
+//! `q̇ = Σ β_i n_i / G₀` is linear in η (smooth for the search) until η reaches the rate
+//! bound, and every longer η of that direction is the bound's motion. The search then has
+//! `2K` unknowns, not `2K − 1`.
+//!
+//! Only η's direction matters (paper family). η is first scaled by an exact power of two so that its
 //! largest component lies in `[1, 2)`: results are bit-identical to the unscaled η for any
 //! ordinary magnitude, and extreme magnitudes (1e±300, subnormals) work. The one limit is
 //! that `g`, reported for η as given, must be a finite `f64`: an η for which it overflows
@@ -24,14 +35,68 @@ pub const MAX_DEGREE: u32 = 8;
 /// Largest accepted step count `S = t_f/dt`.
 pub const MAX_STEPS: u32 = 1_000_000;
 
+/// Which velocity profiles one η names (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Family {
+    /// Eqs. 4–14 as the paper has them: direction-only η, `g = Σ β_i,max / q̇_max`.
+    #[default]
+    Paper,
+    /// The exact rate bound on the written samples, and η's magnitude as the amplitude.
+    FreeAmplitude,
+}
+
+impl Family {
+    /// Both families, in wire-code order.
+    pub const ALL: [Family; 2] = [Family::Paper, Family::FreeAmplitude];
+
+    /// The name used in task files and reports.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Family::Paper => "paper",
+            Family::FreeAmplitude => "free_amplitude",
+        }
+    }
+
+    /// The family of `name` ([`Family::name`]).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// Wire code (0 paper, 1 free amplitude).
+    #[must_use]
+    pub const fn code(self) -> u8 {
+        match self {
+            Family::Paper => 0,
+            Family::FreeAmplitude => 1,
+        }
+    }
+
+    /// The family of wire `code`.
+    #[must_use]
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.code() == code)
+    }
+
+    /// Whether η's magnitude matters (the search then has `2K` unknowns).
+    #[must_use]
+    pub const fn free_amplitude(self) -> bool {
+        matches!(self, Family::FreeAmplitude)
+    }
+}
+
 /// Duration and time grid of a motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Motion {
     tf: f64,
     dt: f64,
-    n: u32,
     steps: u32,
+    /// `n ≤ MAX_DEGREE`; 16 bits so that the family fits beside it (24 bytes in all).
+    n: u16,
+    family: Family,
 }
 
 impl Motion {
@@ -39,8 +104,9 @@ impl Motion {
     pub const IDLE: Self = Self {
         tf: 0.0,
         dt: 0.0,
-        n: 1,
         steps: 0,
+        n: 1,
+        family: Family::Paper,
     };
 
     /// A motion of duration `tf_s` (s) integrated with step `dt_s` (s), time-law degree `n`.
@@ -80,9 +146,23 @@ impl Motion {
         Ok(Self {
             tf: tf_s,
             dt: dt_s,
-            n,
             steps: steps as u32,
+            n: n as u16,
+            family: Family::Paper,
         })
+    }
+
+    /// The same grid with the velocity profiles of `family` ([`Motion::new`] gives
+    /// [`Family::Paper`]).
+    #[must_use]
+    pub fn with_family(self, family: Family) -> Self {
+        Self { family, ..self }
+    }
+
+    /// The family of velocity profiles.
+    #[must_use]
+    pub fn family(&self) -> Family {
+        self.family
     }
 
     /// Duration `t_f` (s).
@@ -100,7 +180,7 @@ impl Motion {
     /// Time-law degree `n`.
     #[must_use]
     pub fn degree(&self) -> u32 {
-        self.n
+        u32::from(self.n)
     }
 
     /// Number of integration steps `S`.
@@ -138,6 +218,30 @@ pub fn eta_pairs<const K: usize>(eta: &[f64]) -> Result<[[f64; 2]; K], Error> {
         }
     }
     Ok(out)
+}
+
+/// Relative margin on the free-amplitude family's exact bound, so that rounding in the
+/// basis (orthonormal to ~1e-15) never lifts a written `|q̇|` above `q̇_max`.
+const RATE_MARGIN: f64 = 1e-12;
+
+/// The free-amplitude family's fixed scale `G₀ = t_f^{n+2} / (4 q̇_max)`: the `g` of every η
+/// slower than the rate bound, so that `q̇` is linear in η there. A unit `a_i` alone
+/// (`b_i = 0`) then peaks at `4·max|τⁿ(τ² − 1)|·q̇_max` (1.54 q̇_max for `n = 1`): points of
+/// the unit sphere of η are about as fast as the bound allows.
+fn free_scale(tf: f64, n: u32, qd_max: f64) -> f64 {
+    powi(tf, n + 2) / (4.0 * qd_max)
+}
+
+/// `max_s ‖β(t_s)‖₂` over the written samples `t_s` (`s = 0 … S`) of `motion`, for the
+/// normalised `(a_i, b_i)`: the same expression and times as [`alpha`] in the rollout.
+fn grid_peak_norm<const K: usize>(ab: &[[f64; 2]; K], motion: &Motion) -> f64 {
+    let (tf, n) = (motion.tf(), motion.degree());
+    let mut best = 0.0f64;
+    for s in 0..=motion.steps().min(MAX_STEPS) {
+        let beta = alpha(ab, 1.0, tf, n, motion.time(s));
+        best = best.max(beta.iter().fold(0.0, |acc, v| acc + v * v));
+    }
+    libm::sqrt(best)
 }
 
 /// `tⁿ` by repeated multiplication (`n ≤ MAX_DEGREE`).
@@ -212,9 +316,18 @@ impl<const K: usize> TimeLaw<K> {
             *bm = peak(a, b, tf, n);
             sum += *bm;
         }
-        let g = sum / qd_max;
+        let g = match motion.family() {
+            Family::Paper => sum / qd_max,
+            Family::FreeAmplitude => {
+                // `max(G₀, max_s ‖β(t_s)‖₂ / q̇_max)` in the scaled frame (β is linear in η,
+                // so only G₀ needs the frame's factor); [`TimeLaw::g`] scales it back.
+                let g0 = libm::scalbn(free_scale(tf, n, qd_max), scale_exp);
+                g0.max(grid_peak_norm(&ab, motion) / qd_max * (1.0 + RATE_MARGIN))
+            }
+        };
         if !(g > 0.0 && g.is_finite()) {
-            // Every β_i ≡ 0 up to rounding (cannot happen for a non-zero η; kept as a guard).
+            // Every β_i ≡ 0 up to rounding (cannot happen for a non-zero η; kept as a guard),
+            // or a free-amplitude η so short (≲ 1e-300) that its g overflows: no motion.
             return Err(Error::EtaZero);
         }
         if !libm::scalbn(g, -scale_exp).is_finite() {
@@ -244,7 +357,8 @@ impl<const K: usize> TimeLaw<K> {
     }
 
     /// `α_i(t) = β_i(t)/g` (rad/s): the weights of the basis vectors in `q̇` (eq. 4 with unit
-    /// columns). Scale-invariant in η.
+    /// columns). Scale-invariant in η for [`Family::Paper`]; for [`Family::FreeAmplitude`]
+    /// it is linear in η below the rate bound and invariant above it.
     #[inline]
     #[must_use]
     pub fn alpha(&self, t: f64) -> [f64; K] {
@@ -262,7 +376,8 @@ impl<const K: usize> TimeLaw<K> {
         self.beta_max.map(|b| libm::scalbn(b, -self.scale_exp))
     }
 
-    /// `g` of eq. 14 for the η as given (finite: see [`Error::EtaTooLarge`]).
+    /// `g` for the η as given: eq. 14's, or the free-amplitude family's (module docs);
+    /// finite (see [`Error::EtaTooLarge`]).
     #[must_use]
     pub fn g(&self) -> f64 {
         libm::scalbn(self.g, -self.scale_exp)
@@ -411,6 +526,58 @@ mod tests {
             TimeLaw::new(&[[f64::MAX, 0.0], [0.0, 0.0]], &m, 0.26),
             Err(Error::EtaTooLarge)
         );
+    }
+
+    /// The free-amplitude family: on every written sample `‖α(t_s)‖₂ ≤ q̇_max`, with
+    /// equality (to the margin) at the fastest one once η reaches the bound; below it α is
+    /// linear in η (`g = G₀`); the paper family is untouched by the family field (its g is
+    /// eq. 14's, bit for bit) and the free bound is never below the exact one.
+    /// Verifies RL-LAW-008.
+    #[test]
+    fn free_amplitude_bound_is_exact_on_the_samples() {
+        let qd = 0.26;
+        let paper = Motion::new(30.0, 0.01, 1).unwrap();
+        let free = paper.with_family(Family::FreeAmplitude);
+        assert_eq!(paper.family(), Family::Paper);
+        let eta = [[3.14771, 0.809316], [1.12249, 0.754006], [4.7352, 0.406031]];
+        let lp = TimeLaw::new(&eta, &paper, qd).unwrap();
+        let lf = TimeLaw::new(&eta, &free, qd).unwrap();
+        let peak = |law: &TimeLaw<3>, m: &Motion| {
+            (0..=m.steps())
+                .map(|s| {
+                    law.alpha(m.time(s))
+                        .iter()
+                        .map(|a| a * a)
+                        .sum::<f64>()
+                        .sqrt()
+                })
+                .fold(0.0f64, f64::max)
+        };
+        // This η is past the bound: the fastest sample sits on it.
+        let fastest = peak(&lf, &free);
+        assert!(fastest <= qd && fastest > qd * (1.0 - 1e-11), "{fastest}");
+        // Eq. 14's sum is more conservative: the paper's motion is slower.
+        assert!(peak(&lp, &paper) < fastest);
+        assert!(lf.g() < lp.g());
+        // A short η is below the bound: g = G₀ and α scales with η.
+        let short = eta.map(|p| p.map(|v| v * 1e-3));
+        let half = eta.map(|p| p.map(|v| v * 5e-4));
+        let ls = TimeLaw::new(&short, &free, qd).unwrap();
+        let lh = TimeLaw::new(&half, &free, qd).unwrap();
+        let g0 = 30f64.powi(3) / (4.0 * qd);
+        assert!((ls.g() - g0).abs() <= 1e-12 * g0);
+        for t in [0.5, 7.0, 21.3] {
+            for (a, b) in ls.alpha(t).iter().zip(lh.alpha(t).iter()) {
+                assert!((a - 2.0 * b).abs() <= 1e-15 * a.abs().max(1e-300));
+            }
+        }
+        assert!(peak(&ls, &free) < qd);
+        // Names and codes round-trip.
+        for f in Family::ALL {
+            assert_eq!(Family::from_name(f.name()), Some(f));
+            assert_eq!(Family::from_code(f.code()), Some(f));
+        }
+        assert_eq!(Family::from_name("fast"), None);
     }
 
     /// Each bad motion (t_f, dt, whole steps, step count, degree) is its typed error; the

@@ -15,11 +15,11 @@
 
 use crate::config::PlannerConfig;
 use crate::error::Error;
-use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::optimizer::{Method, SearchReport};
 use crate::random::Stream;
 use crate::swarm::Swarm;
+use crate::task::Task;
 
 /// C-PSO over a swarm of capacity `P`.
 #[derive(Debug, Clone, PartialEq)]
@@ -78,7 +78,7 @@ impl<const N: usize, const K: usize, const P: usize> Method<N, K> for Cpso<K, P>
     fn start(
         &mut self,
         config: &PlannerConfig,
-        _: &Robot<N>,
+        _: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
         self.reset(config, stream)

@@ -10,6 +10,11 @@
 //! `p = argmax |x_i|`, column `p` left out). A tangent step `δ` becomes the ambient step
 //! `s = Σ δ_c u_c` and the new iterate `(x + s)/‖x + s‖`.
 //!
+//! **Free amplitude** ([`LmConfig::free_amplitude`], for [`Family::FreeAmplitude`]): η's
+//! magnitude is the motion's amplitude (linear in η below the rate bound), so the iterate
+//! is any point of `ℝ^{2K}`, the search runs along the `2K` axes `u_c = e_c`, and a trial is
+//! `x + s` as it is. Screening draws the same points of the unit sphere.
+//!
 //! **Residual.** `r = [e; w·p]` (`6 + N` rows): the pose error `e` of spec §6 and, per joint
 //! `j`, `p_j = max(0, q_max,j − (hi_j − m)) + max(0, (lo_j + m) − q_min,j)`, the joint-limit
 //! excess beyond a margin `m` inside the limits ([`LmConfig::penalty_weight`] `w`,
@@ -62,6 +67,8 @@ use crate::optimizer::{Method, SearchReport};
 use crate::random::Stream;
 use crate::refine::solve_spd_in_place;
 use crate::rollout::Outcome;
+use crate::task::Task;
+use crate::trajectory::Family;
 
 /// Below this `f` (m and rad, as σ_e) a start that stalls is handed to the refinement
 /// against the truth model instead of being restarted, when the planner refines against
@@ -120,6 +127,9 @@ pub struct LmConfig {
     pub refine_patience: u32,
     /// Progress means `‖r‖` falls below `shrink` times its checkpoint value (`0 < shrink < 1`).
     pub shrink: f64,
+    /// Search η's magnitude too ([`crate::Family::FreeAmplitude`]): `2K` ambient unknowns in
+    /// the unit ball instead of `2K − 1` on the sphere (module docs).
+    pub free_amplitude: bool,
     /// Forward-difference step on the unit sphere.
     pub fd_step: f64,
     /// Stop (instead of restarting) when a start that has reached `‖r‖ ≤ σ_e` runs out of
@@ -160,6 +170,7 @@ impl LmConfig {
             fd_step: 1e-7,
             floor: 0.0,
             floor_starts: 0,
+            free_amplitude: false,
         }
     }
 
@@ -364,7 +375,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         if !(tolerance.is_finite() && tolerance > 0.0) {
             return Err(Error::NotPositive(Param::Tolerance));
         }
-        let tangent = (Self::D - 1) as u32;
+        let tangent = (Self::D - usize::from(!config.free_amplitude)) as u32;
         self.patience = if config.patience == 0 {
             2 * tangent + 8
         } else {
@@ -479,7 +490,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
                     self.jac = [[0.0; MAX_DIM]; MAX_ROWS];
                 }
                 self.difference(c, result);
-                if c + 2 < Self::D {
+                if c + 1 < self.dims() {
                     self.phase = Phase::Column(c + 1);
                 } else {
                     self.report.jacobians += 1;
@@ -643,7 +654,12 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         self.phase = Phase::Column(0);
     }
 
-    /// The point that differences tangent direction `c`: `x + h·u_c`.
+    /// Search directions: `2K − 1` on the sphere, `2K` in the ball.
+    fn dims(&self) -> usize {
+        Self::D - usize::from(!self.config.free_amplitude)
+    }
+
+    /// The point that differences direction `c`: `x + h·u_c`.
     fn column_point(&self, c: usize) -> Col {
         let u = self.tangent(c);
         let mut p = self.x;
@@ -657,6 +673,13 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     /// skipping the pivot.
     fn tangent(&self, c: usize) -> Col {
         let d = Self::D;
+        if self.config.free_amplitude {
+            let mut e = [0.0; MAX_DIM];
+            if let Some(v) = e.get_mut(c) {
+                *v = 1.0;
+            }
+            return e;
+        }
         let mut p = 0;
         let mut big = -1.0;
         for (i, v) in self.x.iter().take(d).enumerate() {
@@ -753,7 +776,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             if !self.config.broyden {
                 self.phase = Phase::Column(0);
             } else if self.config.refresh {
-                let c = self.cursor % (Self::D - 1);
+                let c = self.cursor % self.dims();
                 self.cursor = self.cursor.wrapping_add(1);
                 self.phase = Phase::Refresh(c);
             } else {
@@ -803,7 +826,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             self.stalled(stream);
             return;
         }
-        let m = Self::D - 1;
+        let m = self.dims();
         // J_t = J U (rows × m), tangent directions as columns; kept in the struct (like A
         // below) so that the 18×18 scratch matrices live in static memory, not the stack.
         for row in &mut self.jt {
@@ -872,7 +895,9 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         for (ti, si) in t.iter_mut().zip(s.iter()) {
             *ti += si;
         }
-        normalise(&mut t);
+        if !self.config.free_amplitude {
+            normalise(&mut t);
+        }
         self.step = s;
         self.trial = t;
         self.phase = Phase::Trial;
@@ -890,11 +915,12 @@ fn norm2(r: &Res) -> f64 {
 impl<const N: usize, const K: usize> Multistart<N, K> {
     /// The multistart's settings for the planner's `config`: [`LmConfig::reference`] with
     /// the total budget, σ_e, and the truth hand-over floor when refining against the
-    /// truth model; and the f it searches to: the refinement tolerance when there is one
-    /// (it refines as it searches; against the truth it stops at its planner-model floor
-    /// and the truth refinement takes over), else σ_e.
+    /// truth model, and η's magnitude searched too for `family`
+    /// [`Family::FreeAmplitude`]; and the f it searches to: the refinement tolerance when
+    /// there is one (it refines as it searches; against the truth it stops at its
+    /// planner-model floor and the truth refinement takes over), else σ_e.
     #[must_use]
-    pub fn settings(config: &PlannerConfig) -> (LmConfig, f64) {
+    pub fn settings(config: &PlannerConfig, family: Family) -> (LmConfig, f64) {
         let lm = LmConfig {
             max_rollouts: config.max_rollouts,
             sigma_e: config.tolerance,
@@ -906,6 +932,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
                 (Some(_), RefineAgainst::Planner) if 2 * K - 1 < 6 => FLOOR_STARTS,
                 _ => 0,
             },
+            free_amplitude: family.free_amplitude(),
             ..LmConfig::reference()
         };
         let tolerance = match config.refine_tolerance {
@@ -922,11 +949,11 @@ impl<const N: usize, const K: usize> Method<N, K> for Multistart<N, K> {
     fn start(
         &mut self,
         config: &PlannerConfig,
-        robot: &Robot<N>,
+        task: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
-        let (lm, tolerance) = Self::settings(config);
-        self.reset(&lm, robot, tolerance, stream)
+        let (lm, tolerance) = Self::settings(config, task.motion().family());
+        self.reset(&lm, task.robot(), tolerance, stream)
     }
 
     fn tolerance(&self) -> f64 {
@@ -991,7 +1018,7 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
             }
             Phase::Column(c) => {
                 let c = c.checked_add(j)?;
-                if c + 1 >= Self::D {
+                if c >= self.dims() {
                     return None;
                 }
                 Some(Candidate::plain(to_eta(&self.column_point(c)), cap))

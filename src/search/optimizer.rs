@@ -19,10 +19,10 @@
 use crate::config::PlannerConfig;
 use crate::error::Error;
 use crate::geometry::PoseError;
-use crate::model::Robot;
 use crate::random::Stream;
 use crate::rollout::Outcome;
 use crate::swarm::Cost;
+use crate::task::Task;
 
 /// What the planner evaluates next.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -181,15 +181,16 @@ pub struct SearchReport {
 
 /// What the planner asks of a strategy besides the [`Optimizer`] seam.
 pub trait Method<const N: usize, const K: usize>: Optimizer<N, K> {
-    /// Starts the search in place for `config` on `robot`, drawing what it draws at its
-    /// start from `stream` (the strategy documents its draw order).
+    /// Starts the search in place for `config` on `task` (its joint limits and its motion
+    /// family), drawing what it draws at its start from `stream` (the strategy documents
+    /// its draw order).
     ///
     /// # Errors
     /// A bad setting; the search is then finished with nothing found.
     fn start(
         &mut self,
         config: &PlannerConfig,
-        robot: &Robot<N>,
+        task: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error>;
 

@@ -8,10 +8,10 @@
 
 use crate::config::PlannerConfig;
 use crate::error::Error;
-use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
 use crate::optimizer::{Method, SearchReport};
 use crate::random::Stream;
+use crate::task::Task;
 
 /// Random search over η (test-only).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,7 +42,7 @@ impl<const N: usize, const K: usize> Method<N, K> for RandomSearch<N, K> {
     fn start(
         &mut self,
         config: &PlannerConfig,
-        _: &Robot<N>,
+        _: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
         self.tolerance = config.tolerance;

@@ -23,7 +23,6 @@
 use crate::config::{PlannerConfig, RefineAgainst, Strategy};
 use crate::cpso::Cpso;
 use crate::error::Error;
-use crate::model::Robot;
 use crate::multistart::Multistart;
 use crate::optimizer::{
     Candidate, Evaluation, Method, Next, Observer, Optimizer, SearchReport, Stop,
@@ -32,6 +31,7 @@ use crate::random::Stream;
 use crate::refine::{RefineReport, RefineStop, Refiner};
 use crate::rollout::Outcome;
 use crate::swarm::Swarm;
+use crate::task::Task;
 
 /// The running search: the chosen strategy's state, and only its.
 // The variants differ in size by design: the enum is the one place a strategy's state
@@ -76,7 +76,7 @@ impl<const N: usize, const K: usize, const P: usize> Search<N, K, P> {
     pub fn start(
         &mut self,
         config: &PlannerConfig,
-        robot: &Robot<N>,
+        task: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
         // Each arm assigns a constant, which the compiler copies from read-only memory
@@ -90,7 +90,7 @@ impl<const N: usize, const K: usize, const P: usize> Search<N, K, P> {
                 Strategy::Random => *self = Self::RANDOM,
             }
         }
-        each!(self, s => Method::<N, K>::start(s, config, robot, stream))
+        each!(self, s => Method::<N, K>::start(s, config, task, stream))
     }
 
     /// The strategy that runs.
@@ -171,10 +171,10 @@ impl<const N: usize, const K: usize, const P: usize> Method<N, K> for Search<N, 
     fn start(
         &mut self,
         config: &PlannerConfig,
-        robot: &Robot<N>,
+        task: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
-        Search::start(self, config, robot, stream)
+        Search::start(self, config, task, stream)
     }
 
     fn tolerance(&self) -> f64 {

@@ -21,7 +21,7 @@
 //! | 6·8 | end effector: xyz, rpy |
 //! | N·8 | start q₀ (rad) |
 //! | 7·8 | target: position (m), quaternion `[w, x, y, z]` |
-//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32) |
+//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–15 the degree, bits 16–23 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 24–31 zero) |
 //! | 4 + 4 | particles, max_iterations (u32) |
 //! | 6·8 | c1, c2, w_max, w_min, tolerance, eta_bound |
 //! | 8 | seed (u64) |
@@ -33,14 +33,15 @@
 //! | 4 | CRC-32 of everything above |
 //!
 //! A block without re-timing settings is written with magic `RLTASK02` and is byte for byte
-//! what earlier versions wrote; [`decode`] reads both.
+//! what earlier versions wrote; [`decode`] reads both. A block of the paper's family has
+//! family bits 0, so blocks written before the family existed read as the paper's.
 
 use crate::config::{PlannerConfig, RefineAgainst, StagnationConfig, Strategy};
 use crate::error::{BlockFault, Error};
 use crate::geometry::Pose;
 use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
 use crate::planner::Planner;
-use crate::trajectory::Motion;
+use crate::trajectory::{Family, Motion};
 
 /// The block's magic bytes (`01` had no strategy, budget or refinement target).
 pub const MAGIC: [u8; 8] = *b"RLTASK02";
@@ -110,6 +111,8 @@ pub struct TaskBlock<const N: usize> {
     pub dt_s: f64,
     /// Time-law degree.
     pub n: u32,
+    /// The motion family ([`Motion::with_family`]).
+    pub family: Family,
     /// Planner settings (with the frame budget: integration steps the flight software
     /// gives the planner per frame).
     pub planner: PlannerConfig,
@@ -131,6 +134,7 @@ impl<const N: usize> TaskBlock<N> {
         planner: &mut Planner<N, K, P>,
     ) -> Result<(), Error> {
         let loaded = Motion::new(self.tf_s, self.dt_s, self.n).and_then(|motion| {
+            let motion = motion.with_family(self.family);
             planner
                 .task_mut()
                 .init(&self.robot, self.q0, self.target, motion)
@@ -283,7 +287,10 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     w.f64s(&block.target.quat_wxyz);
     w.f64(block.tf_s);
     w.f64(block.dt_s);
-    w.u32(block.n);
+    if block.n > u32::from(u16::MAX) {
+        return Err(Error::Block(BlockFault::Field));
+    }
+    w.u32(block.n | (u32::from(block.family.code()) << 16));
     let p = &block.planner;
     w.u32(p.particles);
     w.u32(p.max_iterations);
@@ -390,7 +397,13 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     };
     let tf_s = r.f64()?;
     let dt_s = r.f64()?;
-    let n = r.u32()?;
+    let degree_family = r.u32()?;
+    let n = degree_family & 0xFFFF;
+    let family = match degree_family >> 16 {
+        code @ 0..=0xFF => Family::from_code(code as u8),
+        _ => None,
+    }
+    .ok_or(Error::Block(BlockFault::Field))?;
     let particles = r.u32()?;
     let max_iterations = r.u32()?;
     let [c1, c2, w_max, w_min, tolerance, eta_bound] = r.f64s::<6>()?;
@@ -434,6 +447,7 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         tf_s,
         dt_s,
         n,
+        family,
         planner: PlannerConfig {
             strategy,
             max_rollouts,
@@ -479,6 +493,7 @@ mod tests {
             tf_s: 30.0,
             dt_s: 0.01,
             n: 1,
+            family: Family::Paper,
             planner,
             retime: None,
         }
@@ -538,6 +553,44 @@ mod tests {
         assert_eq!(&plain[..8], &MAGIC);
         // The shared prefix (after magic and length) is the same bytes.
         assert_eq!(&plain[16..n - 4], &buf[16..n - 4]);
+    }
+
+    /// The family rides in `n`'s upper half: a free-amplitude block round-trips, differs
+    /// from the paper's only in that word (and the CRC), loads a planner whose task has
+    /// that family; an unknown family code is a field error.
+    /// Verifies RL-BLOCK-007.
+    #[test]
+    fn the_motion_family_rides_in_the_degree_word() {
+        let free = TaskBlock {
+            family: Family::FreeAmplitude,
+            ..block()
+        };
+        let (mut a, mut b) = ([0u8; 4096], [0u8; 4096]);
+        let len = encode(&block(), &mut a).unwrap();
+        assert_eq!(encode(&free, &mut b).unwrap(), len);
+        assert_eq!(decode::<7>(&b[..len]).unwrap(), free);
+        // Offset of the degree word: header, base, joints, links, end effector, start,
+        // target, t_f and dt.
+        let word = 16 + 13 * 8 + 7 * 12 * 8 + 7 * 13 * 8 + 6 * 8 + 7 * 8 + 7 * 8 + 2 * 8;
+        assert_eq!(u32::from_le_bytes(a[word..word + 4].try_into().unwrap()), 1);
+        assert_eq!(
+            u32::from_le_bytes(b[word..word + 4].try_into().unwrap()),
+            1 | 1 << 16
+        );
+        for i in (0..len - 4).filter(|&i| i != word + 2) {
+            assert_eq!(a[i], b[i], "byte {i}");
+        }
+        let mut planner = Planner::<7, 4, 64>::IDLE;
+        decode::<7>(&b[..len])
+            .unwrap()
+            .load_into(&mut planner)
+            .unwrap();
+        assert_eq!(planner.task().motion().family(), Family::FreeAmplitude);
+        // Code 2 (no such family), the CRC recomputed so that only the field is wrong.
+        b[word + 2] = 2;
+        let crc = crc32(&b[..len - 4]);
+        b[len - 4..len].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(decode::<7>(&b[..len]), Err(Error::Block(BlockFault::Field)));
     }
 
     /// Every single-byte corruption, a wrong joint count, truncation and a short buffer are

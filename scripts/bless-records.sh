@@ -37,4 +37,5 @@ chaser7-a005-ms   tests/tasks/a/chaser7/task_005.toml        3  -     multistart
 arm9-a007-ms      tests/tasks/a/arm9/task_007.toml           1  1e-9  multistart  planner
 arm12-a003-ms     tests/tasks/a/arm12/task_003.toml          4  -     multistart  planner
 arm6-a010-ms      tests/tasks/a/arm6/task_010.toml           5  1e-9  multistart  truth
+fixed-ref0-fa     tests/tasks/fixed/ref/1cm/ref-0.toml       1  1e-9  multistart  planner
 LIST

@@ -929,7 +929,13 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
                 _ => 0.0,
             },
             floor_starts: match (config.refine_tolerance, config.refine_against) {
-                (Some(_), RefineAgainst::Planner) if 2 * K - 1 < 6 => FLOOR_STARTS,
+                // Fewer unknowns (2K − 1 on the sphere, 2K with a free amplitude) than the
+                // 6 pose equations.
+                (Some(_), RefineAgainst::Planner)
+                    if 2 * K - usize::from(!family.free_amplitude()) < 6 =>
+                {
+                    FLOOR_STARTS
+                }
                 _ => 0,
             },
             free_amplitude: family.free_amplitude(),

@@ -59,3 +59,37 @@ fn free_amplitude_reaches_a_moved_target_the_paper_family_cannot() {
     assert_ne!(paper.stop, Stop::Converged);
     assert!(paper.outcome.f > 1e-3, "{}", paper.outcome.f);
 }
+
+/// A two-phase plan keeps the free amplitude: its search leaves η's scale alone (the paper
+/// family renormalises it), and the plan it returns replays bit for bit from q_s with the
+/// same family, within the rate bound, to the target.
+/// Verifies RL-LAW-008.
+#[test]
+fn a_two_phase_plan_keeps_the_free_amplitude() {
+    use reactionless::IDENTITY_WXYZ;
+    use reactionless::twophase::{TwoPhaseConfig, TwoPhaseStop, plan as plan2};
+    let motion = Motion::new(30.0, 0.01, 1)
+        .unwrap()
+        .with_family(Family::FreeAmplitude);
+    let mut q = q0();
+    for (q, d) in q
+        .iter_mut()
+        .zip([10.0f64, -10.0, 10.0, -10.0, 10.0, 10.0, -10.0])
+    {
+        *q += d.to_radians();
+    }
+    let base: Task<7, 4> = Task::new(robot(), q0(), MOVED, motion).unwrap();
+    let target = base.end_pose(&q, IDENTITY_WXYZ);
+    let task: Task<7, 4> = Task::new(robot(), q0(), target, motion).unwrap();
+    let p = plan2(&task, &TwoPhaseConfig::reference(), 1).unwrap();
+    assert_eq!(p.stop, TwoPhaseStop::Converged, "{p:?}");
+    let o = p.outcome.unwrap();
+    assert!(o.f <= 1e-6 && o.phi == 0.0 && o.max_abs_qd <= robot().qd_max());
+    let mut phase2 = task.clone();
+    phase2.move_start(&p.q_s).unwrap();
+    assert_eq!(phase2.motion().family(), Family::FreeAmplitude);
+    assert_eq!(phase2.rollout(&p.eta, &mut ()).unwrap(), o);
+    // Not put back on the unit sphere after its steps, as the paper family's η is.
+    let norm = p.eta.iter().flatten().map(|v| v * v).sum::<f64>().sqrt();
+    assert!((norm - 1.0).abs() > 1e-6, "|eta| = {norm}");
+}

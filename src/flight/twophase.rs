@@ -18,7 +18,8 @@
 //! solution `q_ik`.
 //!
 //! **One start** is a Levenberg–Marquardt run over `z = [q_s; x]` (`N + 2K` unknowns; `x`
-//! renormalised after every accepted step, its scale being irrelevant) on the residual
+//! renormalised after every accepted step, its scale being irrelevant, except with
+//! [`crate::Family::FreeAmplitude`], whose amplitude is `x`'s scale) on the residual
 //! `r = [e; w·p; s; d]` (`6 + N + 2` rows): the pose error `e` of phase 2's end (spec §6),
 //! the joint-limit excess `p` of phase 2's path beyond the margin (as the multistart's),
 //! the standoff shortfall `s = max(0, standoff_m − ‖p_ee(q_s) − p_target‖)` while the angle
@@ -276,7 +277,13 @@ pub fn plan<const N: usize, const K: usize>(
         let mut lm = Lm {
             nz,
             nr,
-            sphere_from: N,
+            // η is a direction in the paper's family; with a free amplitude its scale is
+            // the amplitude and stays as the search leaves it.
+            sphere_from: if task.motion().family().free_amplitude() {
+                MAX_Z
+            } else {
+                N
+            },
             fd_step: 1e-7,
             patience,
             broyden: true,

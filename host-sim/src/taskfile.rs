@@ -349,13 +349,14 @@ pub struct MotionSection {
 }
 
 /// `[motion] family` as written in a task file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum FamilyKey {
     /// [`Family::Paper`].
     #[default]
     Paper,
     /// [`Family::FreeAmplitude`].
+    #[value(name = "free_amplitude")]
     FreeAmplitude,
 }
 

@@ -386,6 +386,56 @@ fn generate_writes_reachable_tasks_deterministically() {
     assert!(!bad.exists());
 }
 
+/// `generate --family free_amplitude` writes `[motion] family` (and nothing else changes:
+/// the same targets as without it), and the task plans with that family.
+/// Verifies RL-SIM-TWO-005.
+#[test]
+fn generate_writes_the_family_it_is_asked_for() {
+    let tmp = tempfile::tempdir().unwrap();
+    let urdf = root().join("tests/robots/arm9.urdf");
+    let generate = |out: &Path, family: &[&str]| {
+        let mut c = host_sim();
+        c.args(["generate", "--urdf"])
+            .arg(&urdf)
+            .args([
+                "--ee",
+                "ee",
+                "--q-deg",
+                "10,-20,30,-40,50,-60,15,-25,35",
+                "--count",
+                "1",
+                "--seed",
+                "3",
+                "--kind",
+                "perturbed",
+            ])
+            .args(family)
+            .arg("--out")
+            .arg(out);
+        assert!(c.output().unwrap().status.success());
+        std::fs::read_to_string(out.join("task_001.toml")).unwrap()
+    };
+    let paper = generate(&tmp.path().join("p"), &[]);
+    let free = generate(&tmp.path().join("f"), &["--family", "free_amplitude"]);
+    assert!(!paper.contains("family"));
+    let line = free.lines().find(|l| l.starts_with("family")).unwrap();
+    assert!(line.starts_with("family = \"free_amplitude\""), "{line}");
+    let without: String = free
+        .lines()
+        .filter(|l| !l.starts_with("family"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_eq!(without, paper);
+    let out = tmp.path().join("plan");
+    let (code, _, err) = run(
+        &["plan", "{}", "--paper", "--out", "{}"],
+        &[&tmp.path().join("f/task_001.toml"), &out],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let bundle = std::fs::read_to_string(out.join("task.toml")).unwrap();
+    assert!(bundle.contains("free_amplitude"));
+}
+
 // --- frames -------------------------------------------------------------------------
 
 /// `frames --frame-budget 2000 --json` stays within 2000 steps per frame and converges;

@@ -20,11 +20,14 @@
 //!   direction and turned by `--move-deg` about a uniformly random axis.
 //!
 //! `--preshape` adds a `[preshape]` table (its defaults): the tasks ask for two-phase plans.
+//! `--family free_amplitude` writes `[motion] family`: the planner then plans with the
+//! free-amplitude family (the targets are made as always, by the paper family's rollouts).
 
 use crate::args::{List, RobotArgs, parse_list};
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::records::relative_text;
+use crate::taskfile::FamilyKey;
 use crate::urdf::Chain;
 use crate::with_dims;
 use reactionless::TRUTH_SUBSTEPS;
@@ -78,6 +81,10 @@ pub struct Args {
     /// Add a `[preshape]` table: the tasks ask for two-phase plans (spec §15).
     #[arg(long)]
     preshape: bool,
+    /// The motion family the tasks ask for (`[motion] family`): paper (eq. 14, written as
+    /// nothing) or free_amplitude (for targets near a fixed start's reach).
+    #[arg(long, value_enum, default_value_t = FamilyKey::Paper)]
+    family: FamilyKey,
 }
 
 /// What a generated target is.
@@ -310,9 +317,15 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
             fmt_list(&target.position),
             fmt_list(&target.quat_wxyz)
         );
+        let family = match o.family {
+            FamilyKey::Paper => "",
+            FamilyKey::FreeAmplitude => {
+                "family = \"free_amplitude\"  # planned so; any eta above is the paper family's\n"
+            }
+        };
         let _ = writeln!(
             t,
-            "[motion]\ntf_s = {}\ndt_s = {}\nn = 1\n\n[planner]\nseed = 1",
+            "[motion]\ntf_s = {}\ndt_s = {}\nn = 1\n{family}\n[planner]\nseed = 1",
             ryu::Buffer::new().format(o.tf_s),
             ryu::Buffer::new().format(o.dt_s)
         );

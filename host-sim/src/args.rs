@@ -9,7 +9,7 @@
 use crate::error::CliError;
 use crate::taskfile::Overrides;
 use crate::urdf::{self, Chain};
-use reactionless::{Error as CoreError, Param, RefineAgainst, Strategy, eta_pairs};
+use reactionless::{Error as CoreError, Family, Param, RefineAgainst, Strategy, eta_pairs};
 use std::path::PathBuf;
 
 /// A comma-separated list of numbers (negative values allowed: `--q-deg -90,45,0`).
@@ -176,6 +176,12 @@ impl PlanArgs {
 pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
     Strategy::from_name(s.trim())
         .ok_or_else(|| format!("'{s}' is not a strategy (expected multistart or cpso)"))
+}
+
+/// Parses a motion family name (clap value parser).
+pub fn parse_family(s: &str) -> Result<Family, String> {
+    Family::from_name(s.trim())
+        .ok_or_else(|| format!("'{s}' is not a motion family (expected paper or free_amplitude)"))
 }
 
 /// A comma-separated list of strategies.

@@ -85,7 +85,7 @@ pub fn task_block_retimed(
         tf_s: lt.file.motion.tf_s,
         dt_s: lt.file.motion.dt_s,
         n: lt.file.motion.n,
-        family: lt.file.motion.family.into(),
+        family: lt.file.motion.family,
         planner,
         retime,
     };

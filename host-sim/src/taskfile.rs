@@ -345,28 +345,7 @@ pub struct MotionSection {
     /// `"free_amplitude"` (the exact rate bound on the written samples and η's magnitude as
     /// the amplitude, for targets near a fixed start's reach; see `reactionless::Family`).
     #[serde(default)]
-    pub family: FamilyKey,
-}
-
-/// `[motion] family` as written in a task file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum FamilyKey {
-    /// [`Family::Paper`].
-    #[default]
-    Paper,
-    /// [`Family::FreeAmplitude`].
-    #[value(name = "free_amplitude")]
-    FreeAmplitude,
-}
-
-impl From<FamilyKey> for Family {
-    fn from(k: FamilyKey) -> Self {
-        match k {
-            FamilyKey::Paper => Family::Paper,
-            FamilyKey::FreeAmplitude => Family::FreeAmplitude,
-        }
-    }
+    pub family: Family,
 }
 
 fn default_n() -> u32 {
@@ -708,7 +687,7 @@ impl LoadedTask {
             };
             self.err(what)
         })?;
-        Ok(motion.with_family(m.family.into()))
+        Ok(motion.with_family(m.family))
     }
 
     /// Start configuration (rad), checked for length and finiteness.

@@ -19,6 +19,19 @@ fn host_sim() -> Command {
 }
 
 /// A fast task: the 6-DOF test arm, converges in a few iterations.
+/// `host-sim generate` of `urdf` (relative to the repository) from `q_deg`, end effector
+/// `ee`, with `extra` flags, into `out`.
+fn generate(urdf: &str, q_deg: &str, extra: &[&str], out: &Path) -> std::process::Output {
+    let mut c = host_sim();
+    c.args(["generate", "--urdf"])
+        .arg(root().join(urdf))
+        .args(["--ee", "ee", "--q-deg", q_deg])
+        .args(extra)
+        .arg("--out")
+        .arg(out);
+    c.output().unwrap()
+}
+
 fn arm6() -> PathBuf {
     root().join("tests/records/tasks/arm6/task_002.toml")
 }
@@ -299,28 +312,17 @@ fn plots_on_plan_and_rollout() {
 #[test]
 fn generate_writes_reachable_tasks_deterministically() {
     let tmp = tempfile::tempdir().unwrap();
-    let urdf = root().join("tests/robots/arm6.urdf");
-    let generate = |out: &Path| {
-        let mut c = host_sim();
-        c.args(["generate", "--urdf"])
-            .arg(&urdf)
-            .args([
-                "--ee",
-                "ee",
-                "--q-deg",
-                "10,-20,30,-40,50,-60",
-                "--count",
-                "3",
-                "--seed",
-                "11",
-                "--out",
-            ])
-            .arg(out);
-        c.output().unwrap()
+    let make = |out: &Path| {
+        generate(
+            "tests/robots/arm6.urdf",
+            "10,-20,30,-40,50,-60",
+            &["--count", "3", "--seed", "11"],
+            out,
+        )
     };
     let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
-    assert!(generate(&a).status.success());
-    assert!(generate(&b).status.success());
+    assert!(make(&a).status.success());
+    assert!(make(&b).status.success());
     for k in 1..=3 {
         let name = format!("task_{k:03}.toml");
         let ta = std::fs::read_to_string(a.join(&name)).unwrap();
@@ -365,22 +367,12 @@ fn generate_writes_reachable_tasks_deterministically() {
     );
     // Bad inputs write nothing.
     let bad = tmp.path().join("bad");
-    let mut c = host_sim();
-    c.args(["generate", "--urdf"])
-        .arg(&urdf)
-        .args([
-            "--q-deg",
-            "10,-20,30,-40,50,-600",
-            "--count",
-            "2",
-            "--seed",
-            "1",
-            "--ee",
-            "ee",
-            "--out",
-        ])
-        .arg(&bad);
-    let o = c.output().unwrap();
+    let o = generate(
+        "tests/robots/arm6.urdf",
+        "10,-20,30,-40,50,-600",
+        &["--count", "2", "--seed", "1"],
+        &bad,
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("outside the limits of joint 'j6'"));
     assert!(!bad.exists());
@@ -392,31 +384,23 @@ fn generate_writes_reachable_tasks_deterministically() {
 #[test]
 fn generate_writes_the_family_it_is_asked_for() {
     let tmp = tempfile::tempdir().unwrap();
-    let urdf = root().join("tests/robots/arm9.urdf");
-    let generate = |out: &Path, family: &[&str]| {
-        let mut c = host_sim();
-        c.args(["generate", "--urdf"])
-            .arg(&urdf)
-            .args([
-                "--ee",
-                "ee",
-                "--q-deg",
+    let make = |out: &Path, family: &[&str]| {
+        let mut extra = vec!["--count", "1", "--seed", "3", "--kind", "perturbed"];
+        extra.extend_from_slice(family);
+        assert!(
+            generate(
+                "tests/robots/arm9.urdf",
                 "10,-20,30,-40,50,-60,15,-25,35",
-                "--count",
-                "1",
-                "--seed",
-                "3",
-                "--kind",
-                "perturbed",
-            ])
-            .args(family)
-            .arg("--out")
-            .arg(out);
-        assert!(c.output().unwrap().status.success());
+                &extra,
+                out
+            )
+            .status
+            .success()
+        );
         std::fs::read_to_string(out.join("task_001.toml")).unwrap()
     };
-    let paper = generate(&tmp.path().join("p"), &[]);
-    let free = generate(&tmp.path().join("f"), &["--family", "free_amplitude"]);
+    let paper = make(&tmp.path().join("p"), &[]);
+    let free = make(&tmp.path().join("f"), &["--family", "free_amplitude"]);
     assert!(!paper.contains("family"));
     let line = free.lines().find(|l| l.starts_with("family")).unwrap();
     assert!(line.starts_with("family = \"free_amplitude\""), "{line}");

@@ -399,11 +399,10 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let dt_s = r.f64()?;
     let degree_family = r.u32()?;
     let n = degree_family & 0xFFFF;
-    let family = match degree_family >> 16 {
-        code @ 0..=0xFF => Family::from_code(code as u8),
-        _ => None,
-    }
-    .ok_or(Error::Block(BlockFault::Field))?;
+    let family = u8::try_from(degree_family >> 16)
+        .ok()
+        .and_then(Family::from_code)
+        .ok_or(Error::Block(BlockFault::Field))?;
     let particles = r.u32()?;
     let max_iterations = r.u32()?;
     let [c1, c2, w_max, w_min, tolerance, eta_bound] = r.f64s::<6>()?;

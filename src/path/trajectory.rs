@@ -38,6 +38,11 @@ pub const MAX_STEPS: u32 = 1_000_000;
 /// Which velocity profiles one η names (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(rename_all = "snake_case")
+)]
 pub enum Family {
     /// Eqs. 4–14 as the paper has them: direction-only η, `g = Σ β_i,max / q̇_max`.
     #[default]

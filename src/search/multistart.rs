@@ -127,8 +127,8 @@ pub struct LmConfig {
     pub refine_patience: u32,
     /// Progress means `‖r‖` falls below `shrink` times its checkpoint value (`0 < shrink < 1`).
     pub shrink: f64,
-    /// Search η's magnitude too ([`crate::Family::FreeAmplitude`]): `2K` ambient unknowns in
-    /// the unit ball instead of `2K − 1` on the sphere (module docs).
+    /// Search η's magnitude too ([`crate::Family::FreeAmplitude`]): `2K` ambient unknowns
+    /// instead of `2K − 1` on the sphere (module docs).
     pub free_amplitude: bool,
     /// Forward-difference step on the unit sphere.
     pub fd_step: f64,
@@ -375,7 +375,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         if !(tolerance.is_finite() && tolerance > 0.0) {
             return Err(Error::NotPositive(Param::Tolerance));
         }
-        let tangent = (Self::D - usize::from(!config.free_amplitude)) as u32;
+        let tangent = Self::unknowns(config.free_amplitude) as u32;
         self.patience = if config.patience == 0 {
             2 * tangent + 8
         } else {
@@ -654,9 +654,14 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         self.phase = Phase::Column(0);
     }
 
-    /// Search directions: `2K − 1` on the sphere, `2K` in the ball.
+    /// Search directions: `2K − 1` on the sphere, `2K` with a free amplitude.
+    const fn unknowns(free_amplitude: bool) -> usize {
+        Self::D - if free_amplitude { 0 } else { 1 }
+    }
+
+    /// [`Self::unknowns`] of this search.
     fn dims(&self) -> usize {
-        Self::D - usize::from(!self.config.free_amplitude)
+        Self::unknowns(self.config.free_amplitude)
     }
 
     /// The point that differences direction `c`: `x + h·u_c`.
@@ -929,10 +934,9 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
                 _ => 0.0,
             },
             floor_starts: match (config.refine_tolerance, config.refine_against) {
-                // Fewer unknowns (2K − 1 on the sphere, 2K with a free amplitude) than the
-                // 6 pose equations.
+                // Fewer unknowns than the 6 pose equations.
                 (Some(_), RefineAgainst::Planner)
-                    if 2 * K - usize::from(!family.free_amplitude()) < 6 =>
+                    if Self::unknowns(family.free_amplitude()) < 6 =>
                 {
                     FLOOR_STARTS
                 }

@@ -23,16 +23,15 @@
 //! `--family free_amplitude` writes `[motion] family`: the planner then plans with the
 //! free-amplitude family (the targets are made as always, by the paper family's rollouts).
 
-use crate::args::{List, RobotArgs, parse_list};
+use crate::args::{List, RobotArgs, parse_family, parse_list};
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::records::relative_text;
-use crate::taskfile::FamilyKey;
 use crate::urdf::Chain;
 use crate::with_dims;
 use reactionless::TRUTH_SUBSTEPS;
 use reactionless::random::{Purpose, Stream};
-use reactionless::{IDENTITY_WXYZ, Motion, Pose, Task, TruthModel};
+use reactionless::{Family, IDENTITY_WXYZ, Motion, Pose, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -83,8 +82,8 @@ pub struct Args {
     preshape: bool,
     /// The motion family the tasks ask for (`[motion] family`): paper (eq. 14, written as
     /// nothing) or free_amplitude (for targets near a fixed start's reach).
-    #[arg(long, value_enum, default_value_t = FamilyKey::Paper)]
-    family: FamilyKey,
+    #[arg(long, value_parser = parse_family, default_value = "paper")]
+    family: Family,
 }
 
 /// What a generated target is.
@@ -318,8 +317,8 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
             fmt_list(&target.quat_wxyz)
         );
         let family = match o.family {
-            FamilyKey::Paper => "",
-            FamilyKey::FreeAmplitude => {
+            Family::Paper => "",
+            Family::FreeAmplitude => {
                 "family = \"free_amplitude\"  # planned so; any eta above is the paper family's\n"
             }
         };

@@ -182,6 +182,7 @@ fn generate_refuses_bad_generic_flags() {
         ("--distance-deg", "0"),
         ("--move-m", "-0.01"),
         ("--move-deg", "nan"),
+        ("--family", "fast"),
     ] {
         let out = tmp.path().join("g");
         let (code, _, err) = host_sim(args!(

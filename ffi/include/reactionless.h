@@ -321,6 +321,12 @@ typedef struct rl_setpoint {
  */
 #define RL_E_STREAM -22
 
+/*
+ The block asks for a two-phase plan (magic `RLTASK04` or `RLTASK05`, a task with
+ `[preshape]`): this ABI's budgeted planner plans single-phase tasks only.
+ */
+#define RL_E_TWO_PHASE -23
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -344,9 +350,10 @@ rl_status rl_planner_init(struct rl_planner *p, uint32_t abi_version, size_t pla
 
 /*
  Loads a task block (the bytes `host-sim block TASK --out FILE` writes), validating it
- as a cFS table: magic, joint count, length and CRC-32, then every value. On success the
- planner starts planning from scratch; on failure it has no task (`RL_E_NO_TASK` from
- `rl_planner_step`) and the status names the fault.
+ as a cFS table: magic, joint count, length and CRC-32, then every value; a two-phase
+ block is refused (`RL_E_TWO_PHASE`). On success the planner starts planning from
+ scratch; on failure it has no task (`RL_E_NO_TASK` from `rl_planner_step`) and the
+ status names the fault.
 
  # Safety
  `p` is NULL or a planner initialised by `rl_planner_init`, not accessed elsewhere during

@@ -136,6 +136,9 @@ pub const RL_E_CKPT_TASK: rl_status = -20;
 pub const RL_E_MISMATCH: rl_status = -21;
 /// Streaming failed (the rollout lost rank or went non-finite).
 pub const RL_E_STREAM: rl_status = -22;
+/// The block asks for a two-phase plan (magic `RLTASK04` or `RLTASK05`, a task with
+/// `[preshape]`): this ABI's budgeted planner plans single-phase tasks only.
+pub const RL_E_TWO_PHASE: rl_status = -23;
 
 const PLANNER_MAGIC: u32 = 0x524c_504e; // "RLPN"
 const SETPOINTS_MAGIC: u32 = 0x524c_5350; // "RLSP"
@@ -309,6 +312,9 @@ impl rl_planner {
             Ok(b) => b,
             Err(e) => return load_error(e),
         };
+        if decoded.two_phase.is_some() {
+            return RL_E_TWO_PHASE;
+        }
         let Some(planner) = self.planner_mut() else {
             return RL_E_UNINITIALIZED;
         };
@@ -496,9 +502,10 @@ pub unsafe extern "C" fn rl_planner_init(
 }
 
 /// Loads a task block (the bytes `host-sim block TASK --out FILE` writes), validating it
-/// as a cFS table: magic, joint count, length and CRC-32, then every value. On success the
-/// planner starts planning from scratch; on failure it has no task (`RL_E_NO_TASK` from
-/// `rl_planner_step`) and the status names the fault.
+/// as a cFS table: magic, joint count, length and CRC-32, then every value; a two-phase
+/// block is refused (`RL_E_TWO_PHASE`). On success the planner starts planning from
+/// scratch; on failure it has no task (`RL_E_NO_TASK` from `rl_planner_step`) and the
+/// status names the fault.
 ///
 /// # Safety
 /// `p` is NULL or a planner initialised by `rl_planner_init`, not accessed elsewhere during
@@ -726,6 +733,9 @@ pub extern "C" fn rl_status_str(s: rl_status) -> *const c_char {
         RL_E_CKPT_TASK => c"RL_E_CKPT_TASK: checkpoint: of another task",
         RL_E_MISMATCH => c"RL_E_MISMATCH: setpoints of another planner's task",
         RL_E_STREAM => c"RL_E_STREAM: streaming failed",
+        RL_E_TWO_PHASE => {
+            c"RL_E_TWO_PHASE: a two-phase block; the budgeted planner plans single-phase tasks only"
+        }
         _ => c"unknown rl_status",
     };
     text.as_ptr()

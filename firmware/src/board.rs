@@ -6,7 +6,7 @@
 use core::convert::Infallible;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{ErrorType, OutputPin};
-use reactionless::block::retime_block_len;
+use reactionless::block::sectioned_block_len;
 
 /// MPS2 FPGA I/O: the user LEDs register (bits 1:0), AN385/AN500 memory map.
 const FPGAIO_LED: *mut u32 = 0x4002_8000 as *mut u32;
@@ -78,10 +78,13 @@ unsafe extern "C" {
 pub fn task_block() -> &'static [u8] {
     // SAFETY: `_task_block` is the start of the 64 KiB TASK region of memory.x, which the
     // linker reserves (no section is placed there) and which nothing writes at run time;
-    // retime_block_len(7), the longest block, is far below 64 KiB.
+    // the longest block (both optional sections) is far below 64 KiB.
     #[allow(unsafe_code)]
     unsafe {
-        core::slice::from_raw_parts(core::ptr::addr_of!(_task_block), retime_block_len(7))
+        core::slice::from_raw_parts(
+            core::ptr::addr_of!(_task_block),
+            sectioned_block_len(7, true, true),
+        )
     }
 }
 

@@ -6,7 +6,11 @@
 //! frames), the measurement markers and the report. A block with re-timing settings
 //! (`RLTASK03`) also has the finished plan re-timed to minimum time and its setpoints
 //! streamed (`reactionless::retime`), in a statically allocated grid of
-//! [`RETIME_GRID_CAPACITY`] points.
+//! [`RETIME_GRID_CAPACITY`] points. A two-phase block (`RLTASK04`, `RLTASK05`) is planned
+//! in two phases (spec §15) by `reactionless::twophase::plan`, one call on the planner's
+//! task (not yet sliced into frames), reported as phase 2's plan plus a `TWOPHASE` line
+//! (how it ended, phase 1's digest and the wheels' demand) and `QS` lines; `RLTASK05`
+//! re-times phase 2.
 //!
 //! Markers: the `rl_mark_*` functions do nothing but a distinct store; host-sim reads their
 //! addresses from the ELF and QEMU's instruction-counting plugin logs the instruction count
@@ -24,6 +28,7 @@ use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::OutputPin;
 use reactionless::block::{RetimeSettings, decode};
 use reactionless::retime::{self, GridPoint, Limits, Stream};
+use reactionless::twophase::{self, TwoPhaseConfig, TwoPhasePlan, TwoPhaseScratch};
 use reactionless::{Error, Plan, Planner, Progress, Rollout, Status, Task, TrajectoryDigest};
 
 /// The flight robot's joint count and null-space dimension.
@@ -85,6 +90,19 @@ fn grid_slot() -> Option<&'static mut [GridPoint<N>; RETIME_GRID_CAPACITY]> {
     Some(unsafe { &mut *core::ptr::addr_of_mut!(GRID) })
 }
 
+/// The statically allocated two-phase search scratch, handed out once.
+fn scratch_slot() -> Option<&'static mut TwoPhaseScratch<N, K>> {
+    static mut SCRATCH: TwoPhaseScratch<N, K> = TwoPhaseScratch::IDLE;
+    static TAKEN: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+    if TAKEN.swap(true, core::sync::atomic::Ordering::Relaxed) {
+        return None;
+    }
+    // SAFETY: TAKEN makes this the only reference ever created to SCRATCH (single core, no
+    // interrupts touch it).
+    #[allow(unsafe_code)]
+    Some(unsafe { &mut *core::ptr::addr_of_mut!(SCRATCH) })
+}
+
 /// The integration step timed on its own (inside the plan's rollout).
 const TIMED_STEP: u32 = 1500;
 
@@ -92,11 +110,12 @@ const TIMED_STEP: u32 = 1500;
 fn main() -> ! {
     defmt::println!("reactionless firmware {=str}", env!("CARGO_PKG_VERSION"));
     defmt::println!(
-        "SIZES planner={=usize} task={=usize} rollout={=usize} grid={=usize}",
+        "SIZES planner={=usize} task={=usize} rollout={=usize} grid={=usize} scratch={=usize}",
         core::mem::size_of::<Planner<N, K, P>>(),
         core::mem::size_of::<reactionless::Task<N, K>>(),
         core::mem::size_of::<Rollout<N, K>>(),
-        core::mem::size_of::<[GridPoint<N>; RETIME_GRID_CAPACITY]>()
+        core::mem::size_of::<[GridPoint<N>; RETIME_GRID_CAPACITY]>(),
+        core::mem::size_of::<TwoPhaseScratch<N, K>>()
     );
     #[cfg(feature = "panic-canary")]
     canary();
@@ -115,7 +134,16 @@ fn main() -> ! {
 
 fn run() -> Result<(), Error> {
     let planner = planner_slot().ok_or(Error::NotInitialized)?;
-    let (frame_budget, retime) = load(planner)?;
+    let Loaded {
+        frame_budget,
+        retime,
+        two_phase,
+        seed,
+    } = load(planner)?;
+    if let Some(config) = two_phase {
+        defmt::println!("PLAN two_phase");
+        return plan_two_phase(planner, &config, seed, retime.as_ref());
+    }
     defmt::println!("PLAN frame_budget={=u32}", frame_budget);
     let (plan, frames) = plan(planner, frame_budget)?;
     measure(planner.task(), &plan, frames)?;
@@ -125,13 +153,99 @@ fn run() -> Result<(), Error> {
     }
 }
 
+/// What the block asks for beyond the task the planner now holds.
+struct Loaded {
+    frame_budget: u32,
+    retime: Option<RetimeSettings<N>>,
+    two_phase: Option<TwoPhaseConfig>,
+    seed: u64,
+}
+
 /// Decodes the task block and gives the planner its task, in place. Its own frame: the
 /// block, the robot and the task are dropped before planning starts.
 #[inline(never)]
-fn load(planner: &mut Planner<N, K, P>) -> Result<(u32, Option<RetimeSettings<N>>), Error> {
+fn load(planner: &mut Planner<N, K, P>) -> Result<Loaded, Error> {
     let block = decode::<N>(task_block())?;
     block.load_into(planner)?;
-    Ok((block.planner.frame_budget, block.retime))
+    Ok(Loaded {
+        frame_budget: block.planner.frame_budget,
+        retime: block.retime,
+        two_phase: block.two_phase,
+        seed: block.planner.seed,
+    })
+}
+
+/// Plans the planner's task in two phases (one call, timed as one frame, its scratch
+/// static), moves the task's
+/// start to phase 2's `q_s`, reports phase 2 as a plan (`RESULT`, `ETA`, `POSE`, its
+/// rollout and one step timed, as [`measure`]) and the rest (`TWOPHASE`, `QS`); with
+/// `retime`, re-times phase 2.
+#[inline(never)]
+fn plan_two_phase(
+    planner: &mut Planner<N, K, P>,
+    config: &TwoPhaseConfig,
+    seed: u64,
+    retime: Option<&RetimeSettings<N>>,
+) -> Result<(), Error> {
+    let scratch = scratch_slot().ok_or(Error::NotInitialized)?;
+    let task = planner.task_mut();
+    rl_mark_call_begin();
+    let p: TwoPhasePlan<N, K> = twophase::plan_in(scratch, task, config, seed)?;
+    rl_mark_call_end();
+    let mut phase1 = TrajectoryDigest::new();
+    p.preshape.write(&mut phase1);
+    task.move_start(&p.q_s)?;
+    let (converged, rollouts) = (p.converged(), p.rollouts);
+    match &p.outcome {
+        Some(outcome) => report(
+            task,
+            &p.eta,
+            outcome,
+            Counts {
+                converged,
+                iterations: 0,
+                rollouts,
+                stagnation: 0,
+                restarts: 0,
+                frames: 1,
+            },
+        )?,
+        None => {
+            // Nothing was rolled out (a target beyond reach): no pose, the empty digest.
+            defmt::println!(
+                "RESULT converged=false iterations=0 rollouts={=u32} stagnation=0 restarts=0 frames=1 f={=u64:#018x} samples=0 digest={=u64:#018x} reproducible=true",
+                rollouts,
+                f64::NAN.to_bits(),
+                TrajectoryDigest::new().value()
+            );
+            for (i, v) in p.eta.iter().flatten().enumerate() {
+                defmt::println!("ETA {=usize} {=u64:#018x}", i, v.to_bits());
+            }
+        }
+    }
+    let d = &p.demand;
+    defmt::println!(
+        "TWOPHASE stop={=str} starts={=u32} reach_f={=u64:#018x} base={=u64:#018x} steps1={=u32} samples1={=u32} digest1={=u64:#018x} momentum={=u64:#018x} torque={=u64:#018x} shift_x={=u64:#018x} shift_y={=u64:#018x} shift_z={=u64:#018x}",
+        p.stop.name(),
+        p.starts,
+        p.reach_f.to_bits(),
+        p.base_disturbance.to_bits(),
+        p.preshape.steps(),
+        phase1.samples(),
+        phase1.value(),
+        d.momentum_nms.to_bits(),
+        d.torque_nm.to_bits(),
+        d.base_shift_m[0].to_bits(),
+        d.base_shift_m[1].to_bits(),
+        d.base_shift_m[2].to_bits()
+    );
+    for (i, v) in p.q_s.iter().enumerate() {
+        defmt::println!("QS {=usize} {=u64:#018x}", i, v.to_bits());
+    }
+    match (retime, &p.outcome) {
+        (Some(settings), Some(_)) => retime_and_stream(task, &p.eta, settings),
+        _ => Ok(()),
+    }
 }
 
 /// Re-times the plan's path to minimum time in the static grid (timed: the path's two
@@ -197,34 +311,66 @@ fn plan(planner: &mut Planner<N, K, P>, frame_budget: u32) -> Result<(Plan<N, K>
 /// Re-runs the plan's rollout (timed), its digest and one step (timed), and reports.
 #[inline(never)]
 fn measure(task: &Task<N, K>, plan: &Plan<N, K>, frames: u32) -> Result<(), Error> {
-    let converged = plan.converged();
+    report(
+        task,
+        &plan.eta,
+        &plan.outcome,
+        Counts {
+            converged: plan.converged(),
+            iterations: plan.iterations,
+            rollouts: plan.rollouts,
+            stagnation: plan.stagnation_events,
+            restarts: plan.restarts,
+            frames,
+        },
+    )
+}
+
+/// The counts a `RESULT` line reports.
+struct Counts {
+    converged: bool,
+    iterations: u32,
+    rollouts: u32,
+    stagnation: u32,
+    restarts: u32,
+    frames: u32,
+}
+
+/// Re-runs the rollout of `eta` (timed), its digest and one step (timed), and reports them
+/// with `outcome` (the planner's rollout of `eta`) and the counts.
+#[inline(never)]
+fn report(
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    o: &reactionless::Outcome<N>,
+    c: Counts,
+) -> Result<(), Error> {
     rl_mark_rollout_begin();
-    let again = task.rollout(&plan.eta, &mut ())?;
+    let again = task.rollout(eta, &mut ())?;
     rl_mark_rollout_end();
     let mut digest = TrajectoryDigest::new();
-    task.rollout(&plan.eta, &mut digest)?;
-    let mut r = Rollout::new(task, &plan.eta)?;
+    task.rollout(eta, &mut digest)?;
+    let mut r = Rollout::new(task, eta)?;
     r.advance(task, TIMED_STEP, &mut ())?;
     rl_mark_step_begin();
     let p = r.advance(task, 1, &mut ())?;
     rl_mark_step_end();
-    let same = again == plan.outcome && matches!(p, Progress::Running { .. });
+    let same = again == *o && matches!(p, Progress::Running { .. });
 
-    let o = &plan.outcome;
     defmt::println!(
         "RESULT converged={=bool} iterations={=u32} rollouts={=u32} stagnation={=u32} restarts={=u32} frames={=u32} f={=u64:#018x} samples={=u32} digest={=u64:#018x} reproducible={=bool}",
-        converged,
-        plan.iterations,
-        plan.rollouts,
-        plan.stagnation_events,
-        plan.restarts,
-        frames,
+        c.converged,
+        c.iterations,
+        c.rollouts,
+        c.stagnation,
+        c.restarts,
+        c.frames,
         o.f.to_bits(),
         digest.samples(),
         digest.value(),
         same
     );
-    for (i, v) in plan.eta.iter().flatten().enumerate() {
+    for (i, v) in eta.iter().flatten().enumerate() {
         defmt::println!("ETA {=usize} {=u64:#018x}", i, v.to_bits());
     }
     for (i, v) in o

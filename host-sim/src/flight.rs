@@ -2,12 +2,16 @@
 //! robot (`reactionless::block`, CRC-32). `target` hands it to QEMU, `block` writes it to a
 //! file for C clients (`reactionless-ffi`'s `rl_planner_load_block`). With re-timing
 //! settings ([`retime_settings`]) the block is `RLTASK03` and the image also re-times the
-//! plan.
+//! plan; a task with `[preshape]` gives a two-phase block (`RLTASK04`, with re-timing
+//! `RLTASK05`) and the image plans in two phases (spec §15); [`flight_outputs`] is what
+//! the image then reports, computed on the host for `target` to compare.
 
 use crate::error::{CliError, Context};
+use crate::goal::status_name;
+use crate::records::{Outputs, PoseBits, bits};
 use crate::taskfile::{LoadedTask, Overrides};
-use reactionless::Pose;
-use reactionless::block::{RetimeSettings, TaskBlock, encode, retime_block_len};
+use reactionless::block::{RetimeSettings, TaskBlock, encode, sectioned_block_len};
+use reactionless::{Pose, TrajectoryDigest};
 
 /// The flight robot's joint count (the image is built for it).
 pub const FLIGHT_N: usize = 7;
@@ -74,7 +78,11 @@ pub fn task_block_retimed(
     }
     // Validate everything the image will validate, with the host's messages.
     let task = lt.task::<7, 4>()?;
-    let planner = lt.planner(FLIGHT_P, overrides)?;
+    let (planner, asked) = lt.plan_settings(FLIGHT_P, overrides)?;
+    let two_phase = lt
+        .file
+        .preshape
+        .map(|section| crate::preshaping::two_phase_config(lt, &section, &planner, &asked));
     let block = TaskBlock::<7> {
         robot: lt.chain.desc::<7>()?,
         q0: *task.start(),
@@ -88,9 +96,92 @@ pub fn task_block_retimed(
         family: lt.file.motion.family,
         planner,
         retime,
+        two_phase,
     };
-    let mut buf = vec![0u8; retime_block_len(7)];
+    let mut buf = vec![0u8; sectioned_block_len(7, true, true)];
     let len = encode(&block, &mut buf).or_internal(|| "task block")?;
     buf.truncate(len);
     Ok(buf)
+}
+
+/// What the flight image reports for a two-phase block of `lt` (firmware/src/main.rs,
+/// `plan_two_phase`), computed on the host: phase 2's plan as a record's outputs (from the
+/// task moved to `q_s`; no rollout when the target is beyond reach: `f` NaN, no pose, the
+/// empty digest), the `TWOPHASE` line's fields in order and `q_s`'s bit patterns; and
+/// phase 2's task.
+pub fn flight_outputs(lt: &LoadedTask, overrides: &Overrides) -> Result<FlightTwoPhase, CliError> {
+    let section = lt
+        .file
+        .preshape
+        .ok_or_else(|| CliError::input(format!("{}: no [preshape] section", lt.path.display())))?;
+    let (config, asked) = lt.plan_settings(FLIGHT_P, overrides)?;
+    let (mut task, _, p, _) = crate::preshaping::solve::<7, 4>(lt, &section, &config, &asked)?;
+    task.move_start(&p.q_s)
+        .map_err(|e| CliError::internal(format!("phase 2's start: {e}")))?;
+    let mut digest = TrajectoryDigest::new();
+    let (f, pose) = match &p.outcome {
+        Some(o) => {
+            task.rollout(&p.eta, &mut digest)
+                .map_err(|e| CliError::internal(format!("phase 2's rollout: {e}")))?;
+            (o.f, Some(o.end_pose))
+        }
+        None => (f64::NAN, None),
+    };
+    let eta: Vec<f64> = p.eta.iter().flatten().copied().collect();
+    let outputs = Outputs {
+        status: status_name(p.converged()).into(),
+        iterations: 0,
+        rollouts: p.rollouts,
+        stagnation_events: 0,
+        restarts: 0,
+        eta_bits: eta.iter().map(|v| bits(*v)).collect(),
+        eta,
+        f_bits: bits(f),
+        f,
+        end_pose_bits: PoseBits {
+            position: pose.map_or(vec![], |q| q.position.iter().map(|v| bits(*v)).collect()),
+            quat_wxyz: pose.map_or(vec![], |q| q.quat_wxyz.iter().map(|v| bits(*v)).collect()),
+        },
+        trajectory_samples: digest.samples(),
+        trajectory_digest: format!("{:#018x}", digest.value()),
+    };
+    let mut phase1 = TrajectoryDigest::new();
+    p.preshape.write(&mut phase1);
+    let d = &p.demand;
+    let hex = |v: f64| bits(v);
+    let line = vec![
+        ("stop", p.stop.name().to_string()),
+        ("starts", p.starts.to_string()),
+        ("reach_f", hex(p.reach_f)),
+        ("base", hex(p.base_disturbance)),
+        ("steps1", p.preshape.steps().to_string()),
+        ("samples1", phase1.samples().to_string()),
+        ("digest1", format!("{:#018x}", phase1.value())),
+        ("momentum", hex(d.momentum_nms)),
+        ("torque", hex(d.torque_nm)),
+        ("shift_x", hex(d.base_shift_m[0])),
+        ("shift_y", hex(d.base_shift_m[1])),
+        ("shift_z", hex(d.base_shift_m[2])),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect();
+    Ok(FlightTwoPhase {
+        outputs,
+        line,
+        q_s_bits: p.q_s.iter().map(|v| bits(*v)).collect(),
+        phase2: task,
+    })
+}
+
+/// [`flight_outputs`]: what the image reports for a two-phase block, on the host.
+pub struct FlightTwoPhase {
+    /// Phase 2's plan as a record's outputs.
+    pub outputs: Outputs,
+    /// The `TWOPHASE` line's fields, in order.
+    pub line: Vec<(String, String)>,
+    /// `q_s`, bit patterns.
+    pub q_s_bits: Vec<String>,
+    /// Phase 2's task (the task from `q_s`).
+    pub phase2: reactionless::Task<7, 4>,
 }

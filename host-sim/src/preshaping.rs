@@ -117,9 +117,25 @@ fn phase2_text(lt: &LoadedTask, q_s_deg: &[f64], shift: &[f64; 3]) -> Result<Str
     toml::to_string(&table).or_internal(|| "writing phase 2's task")
 }
 
+/// The core's two-phase settings of `lt`: `[preshape]`'s bounds, phase 2's success test
+/// (the refinement tolerance asked for, else σ_e), the planner's rollout budget and
+/// `[check]`'s base-disturbance limit. What `plan`, `campaign` and the flight block use.
+pub fn two_phase_config(
+    lt: &LoadedTask,
+    section: &PreshapeSection,
+    config: &PlannerConfig,
+    asked: &Asked,
+) -> reactionless::TwoPhaseConfig {
+    section.config(
+        asked.refine_tolerance.unwrap_or(asked.sigma_e),
+        config.max_rollouts,
+        lt.max_base_disturbance_deg(),
+    )
+}
+
 /// The core's two-phase plan of `lt` with the settings the task and flags ask for: the
 /// task, those settings, the plan and the wall time of planning (s).
-fn solve<const N: usize, const K: usize>(
+pub fn solve<const N: usize, const K: usize>(
     lt: &LoadedTask,
     section: &PreshapeSection,
     config: &PlannerConfig,
@@ -134,12 +150,7 @@ fn solve<const N: usize, const K: usize>(
     CliError,
 > {
     let task = lt.task::<N, K>()?;
-    let tolerance = asked.refine_tolerance.unwrap_or(asked.sigma_e);
-    let tp = section.config(
-        tolerance,
-        config.max_rollouts,
-        lt.max_base_disturbance_deg(),
-    );
+    let tp = two_phase_config(lt, section, config, asked);
     let clock = std::time::Instant::now();
     let p = plan_two_phase(&task, &tp, config.seed)
         .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
@@ -192,15 +203,7 @@ pub fn plan<const N: usize, const K: usize>(
     let mut converged = false;
     if p.outcome.is_some() {
         let mut csv = CsvSink::create(&dir.path(PHASE1_CSV), N)?;
-        for j in 0..=preshape.steps() {
-            let (q, qd) = preshape.sample(j);
-            csv.push(&Sample {
-                step: j,
-                t: f64::from(j) * task.motion().dt(),
-                q,
-                qd,
-            });
-        }
+        preshape.write(&mut |s: &Sample<N>| csv.push(s));
         csv.finish()?;
         let text = phase2_text(lt, &q_s_deg, &demand.base_shift_m)?;
         let lt2 = taskfile::from_texts(&lt.path, &text, &lt.urdf_text)?;

@@ -29,12 +29,15 @@
 //! | 4 + 8 + 4 | refine flag (u32, 0 or 1), refine tolerance, refine max rollouts (u32) |
 //! | 4 | frame budget (u32, integration steps per call of `step`) |
 //! | 4 + 4 + 4 | strategy (u32, [`Strategy::code`]: 0 multistart, 1 cpso), max_rollouts (u32), refine_against (u32, [`RefineAgainst::code`]: 0 planner, 1 truth) |
-//! | 4 + 8 + N·8 | only with magic `RLTASK03`: re-timing grid (u32), margin, `q̈max` per joint (rad/s²) |
+//! | 4 + 8 + N·8 | only with magic `RLTASK03` or `RLTASK05`: re-timing grid (u32), margin, `q̈max` per joint (rad/s²) |
+//! | 9·8 + 4 | only with magic `RLTASK04` or `RLTASK05`: a two-phase plan ([`TwoPhaseConfig`], spec §15): `q̈max` of phase 1 (rad/s²), longest phase 1 (s), wheel momentum (N m s) and torque (N m), standoff (m, rad), phase 2's tolerance on `f`, joint-limit margin (rad), largest base disturbance (rad); rollout budget (u32) |
 //! | 4 | CRC-32 of everything above |
 //!
-//! A block without re-timing settings is written with magic `RLTASK02` and is byte for byte
-//! what earlier versions wrote; [`decode`] reads both. A block of the paper's family has
-//! family bits 0, so blocks written before the family existed read as the paper's.
+//! The magic names the optional sections: `RLTASK02` none, `RLTASK03` re-timing, `RLTASK04`
+//! two-phase, `RLTASK05` both. A block without them is written with magic `RLTASK02` and is
+//! byte for byte what earlier versions wrote; [`decode`] reads all four. A block of the
+//! paper's family has family bits 0, so blocks written before the family existed read as
+//! the paper's.
 
 use crate::config::{PlannerConfig, RefineAgainst, StagnationConfig, Strategy};
 use crate::error::{BlockFault, Error};
@@ -42,11 +45,19 @@ use crate::geometry::Pose;
 use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
 use crate::planner::Planner;
 use crate::trajectory::{Family, Motion};
+use crate::twophase::TwoPhaseConfig;
 
 /// The block's magic bytes (`01` had no strategy, budget or refinement target).
 pub const MAGIC: [u8; 8] = *b"RLTASK02";
 /// The magic of a block that also carries [`RetimeSettings`].
 pub const MAGIC_RETIME: [u8; 8] = *b"RLTASK03";
+/// The magic of a block that carries a two-phase plan's [`TwoPhaseConfig`].
+pub const MAGIC_TWO_PHASE: [u8; 8] = *b"RLTASK04";
+/// The magic of a block that carries both [`RetimeSettings`] and a [`TwoPhaseConfig`].
+pub const MAGIC_TWO_PHASE_RETIME: [u8; 8] = *b"RLTASK05";
+
+/// Bytes of the two-phase section.
+const TWO_PHASE_LEN: usize = 9 * 8 + 4;
 
 /// Size in bytes of a block for `n` joints.
 #[must_use]
@@ -79,6 +90,40 @@ pub const fn block_len(n: usize) -> usize {
 #[must_use]
 pub const fn retime_block_len(n: usize) -> usize {
     block_len(n) + 4 + 8 + n * 8
+}
+
+/// Size in bytes of a block for `n` joints with the optional sections asked for: re-timing
+/// settings (`retime`) and a two-phase plan (`two_phase`).
+#[must_use]
+pub const fn sectioned_block_len(n: usize, retime: bool, two_phase: bool) -> usize {
+    let base = if retime {
+        retime_block_len(n)
+    } else {
+        block_len(n)
+    };
+    if two_phase {
+        base + TWO_PHASE_LEN
+    } else {
+        base
+    }
+}
+
+/// The magic naming the optional sections: (re-timing, two-phase).
+const fn magic_of(retime: bool, two_phase: bool) -> [u8; 8] {
+    match (retime, two_phase) {
+        (false, false) => MAGIC,
+        (true, false) => MAGIC_RETIME,
+        (false, true) => MAGIC_TWO_PHASE,
+        (true, true) => MAGIC_TWO_PHASE_RETIME,
+    }
+}
+
+/// The optional sections a magic announces: (re-timing, two-phase); `None` for no magic
+/// of this version.
+fn sections_of(magic: &[u8; 8]) -> Option<(bool, bool)> {
+    [(false, false), (true, false), (false, true), (true, true)]
+        .into_iter()
+        .find(|(r, t)| magic_of(*r, *t) == *magic)
 }
 
 /// Re-timing settings a block may carry: the flight image then re-times the finished plan
@@ -116,8 +161,11 @@ pub struct TaskBlock<const N: usize> {
     /// Planner settings (with the frame budget: integration steps the flight software
     /// gives the planner per frame).
     pub planner: PlannerConfig,
-    /// Re-time the plan once it is finished (`RLTASK03`), or not (`RLTASK02`).
+    /// Re-time the plan once it is finished (`RLTASK03`, `RLTASK05`), or not.
     pub retime: Option<RetimeSettings<N>>,
+    /// Plan in two phases ([`crate::twophase::plan`] with the planner's seed; `RLTASK04`,
+    /// `RLTASK05`), or in one.
+    pub two_phase: Option<TwoPhaseConfig>,
 }
 
 impl<const N: usize> TaskBlock<N> {
@@ -252,16 +300,17 @@ impl Reader<'_> {
     }
 }
 
-/// Writes `block` into `out`; returns the number of bytes written ([`block_len`], or
-/// [`retime_block_len`] with re-timing settings).
+/// Writes `block` into `out`; returns the number of bytes written
+/// ([`sectioned_block_len`]: [`block_len`] without optional sections).
 ///
 /// # Errors
 /// [`BlockFault::Truncated`] if `out` is shorter than that.
 pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<usize, Error> {
-    let (magic, len) = match block.retime {
-        None => (MAGIC, block_len(N)),
-        Some(_) => (MAGIC_RETIME, retime_block_len(N)),
-    };
+    let (retime, two_phase) = (block.retime.is_some(), block.two_phase.is_some());
+    let (magic, len) = (
+        magic_of(retime, two_phase),
+        sectioned_block_len(N, retime, two_phase),
+    );
     let mut w = Writer {
         out,
         at: 0,
@@ -318,6 +367,20 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
         w.f64(r.margin);
         w.f64s(&r.qdd_max);
     }
+    if let Some(c) = &block.two_phase {
+        w.f64s(&[
+            c.qdd_max,
+            c.max_duration,
+            c.max_momentum,
+            c.max_torque,
+            c.standoff_m,
+            c.standoff_rad,
+            c.tolerance,
+            c.margin,
+            c.max_base_disturbance,
+        ]);
+        w.u32(c.max_rollouts);
+    }
     let crc = crc32(w.out.get(..w.at).unwrap_or(&[]));
     w.u32(crc);
     if w.overflow || w.at != len {
@@ -334,13 +397,9 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
 pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let mut r = Reader { data, at: 0 };
     let magic = r.take::<8>()?;
-    let (len, with_retime) = if magic == MAGIC {
-        (block_len(N), false)
-    } else if magic == MAGIC_RETIME {
-        (retime_block_len(N), true)
-    } else {
-        return Err(Error::Block(BlockFault::Magic));
-    };
+    let (with_retime, with_two_phase) =
+        sections_of(&magic).ok_or(Error::Block(BlockFault::Magic))?;
+    let len = sectioned_block_len(N, with_retime, with_two_phase);
     if r.u32()? as usize != N {
         return Err(Error::Block(BlockFault::JointCount));
     }
@@ -429,6 +488,33 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     } else {
         None
     };
+    let two_phase = if with_two_phase {
+        let [
+            qdd_max,
+            max_duration,
+            max_momentum,
+            max_torque,
+            standoff_m,
+            standoff_rad,
+            tolerance,
+            margin,
+            max_base_disturbance,
+        ] = r.f64s::<9>()?;
+        Some(TwoPhaseConfig {
+            qdd_max,
+            max_duration,
+            max_momentum,
+            max_torque,
+            standoff_m,
+            standoff_rad,
+            tolerance,
+            max_rollouts: r.u32()?,
+            margin,
+            max_base_disturbance,
+        })
+    } else {
+        None
+    };
     let refine_tolerance = match flag {
         0 => None,
         1 => Some(refine_tolerance),
@@ -471,6 +557,7 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
             },
         },
         retime,
+        two_phase,
     })
 }
 
@@ -495,6 +582,7 @@ mod tests {
             family: Family::Paper,
             planner,
             retime: None,
+            two_phase: None,
         }
     }
 
@@ -590,6 +678,45 @@ mod tests {
         let crc = crc32(&b[..len - 4]);
         b[len - 4..len].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(decode::<7>(&b[..len]), Err(Error::Block(BlockFault::Field)));
+    }
+
+    /// A two-phase block is written as `RLTASK04` (with re-timing settings `RLTASK05`),
+    /// `sectioned_block_len` bytes, decodes to itself exactly, every single-byte corruption
+    /// of it is caught, and before its section it holds the bytes of the single-phase block.
+    /// Verifies RL-BLOCK-008.
+    #[test]
+    fn two_phase_settings_roundtrip_and_are_checked() {
+        let config = TwoPhaseConfig {
+            max_rollouts: 4000,
+            ..TwoPhaseConfig::reference()
+        };
+        for (base, magic, retime) in [
+            (block(), MAGIC_TWO_PHASE, false),
+            (retime_block(), MAGIC_TWO_PHASE_RETIME, true),
+        ] {
+            let two = TaskBlock {
+                two_phase: Some(config),
+                ..base
+            };
+            let mut buf = [0u8; 4096];
+            let len = encode(&two, &mut buf).unwrap();
+            assert_eq!(len, sectioned_block_len(7, retime, true));
+            assert_eq!(len, sectioned_block_len(7, retime, false) + 76);
+            assert_eq!(&buf[..8], &magic);
+            assert_eq!(decode::<7>(&buf[..len]).unwrap(), two);
+            for i in 0..len {
+                let mut bad = buf;
+                bad[i] ^= 0x10;
+                assert!(decode::<7>(&bad[..len]).is_err(), "flip at byte {i}");
+            }
+            assert_eq!(
+                decode::<7>(&buf[..len - 1]),
+                Err(Error::Block(BlockFault::Truncated))
+            );
+            let mut one = [0u8; 4096];
+            let n = encode(&base, &mut one).unwrap();
+            assert_eq!(&one[16..n - 4], &buf[16..n - 4]);
+        }
     }
 
     /// Every single-byte corruption, a wrong joint count, truncation and a short buffer are

@@ -3,7 +3,8 @@
 //! problem as well posed as inverse kinematics; phase 1 ([`crate::preshape`]) brings the
 //! arm from the task's start to `q_s` while the attitude control holds the base.
 //!
-//! Owns [`TwoPhaseConfig`], [`TwoPhasePlan`], [`TwoPhaseStop`] and [`plan`].
+//! Owns [`TwoPhaseConfig`], [`TwoPhasePlan`], [`TwoPhaseStop`], [`TwoPhaseScratch`] and
+//! [`plan`] ([`plan_in`] with the scratch in the caller's static memory).
 //!
 //! **Reach first.** A kinematic inverse (no rollouts: the end pose of a configuration with
 //! the base attitude held and the CoM fixed, which is where a reactionless phase 2 ends)
@@ -37,7 +38,7 @@
 //! (both scale as `1/T` and `1/T²`), and phase 2 is flown on the truth model: a plan whose
 //! base turns more than `max_base_disturbance` is not accepted (the next start is tried);
 //! a plan that needs longer than `max_duration` for that
-//! is refused and the next start tried; after three starts that end (converged and
+//! is refused and the next start tried; after eight starts that end (converged and
 //! refused, or stalled) where phase 1 needs longer than the longest allowed, the search
 //! ends [`TwoPhaseStop::PreshapeBounds`]. Otherwise after
 //! `max_rollouts` rollouts ([`TwoPhaseStop::Exhausted`], the closest plan reached).
@@ -228,21 +229,70 @@ impl<const N: usize, const K: usize> TwoPhasePlan<N, K> {
     }
 }
 
-/// Plans `task` in two phases with the planner's stream of `seed`.
+/// The search's working memory: phase 2's task, the LM's Jacobian and normal matrix, the
+/// screening pool. Flight software keeps one in static memory ([`plan_in`]) so that
+/// nothing task-sized passes through the stack; [`plan`] keeps one on its own stack.
+/// Size: `TwoPhaseScratch<7, 4>`, see `tests/sizes.rs`.
+pub struct TwoPhaseScratch<const N: usize, const K: usize> {
+    phase2: Task<N, K>,
+    work: LmWork,
+    pool: [(Col, f64); SCREEN],
+}
+
+impl<const N: usize, const K: usize> TwoPhaseScratch<N, K> {
+    /// Scratch before any search (placeable in a `static`).
+    pub const IDLE: Self = Self {
+        phase2: Task::IDLE,
+        work: LmWork::ZERO,
+        pool: [([0.0; MAX_Z], f64::INFINITY); SCREEN],
+    };
+}
+
+/// The LM's matrices: the Jacobian and the normal matrix of its step.
+struct LmWork {
+    jac: [[f64; MAX_Z]; MAX_R],
+    normal: [[f64; MAX_R]; MAX_R],
+}
+
+impl LmWork {
+    const ZERO: Self = Self {
+        jac: [[0.0; MAX_Z]; MAX_R],
+        normal: [[0.0; MAX_R]; MAX_R],
+    };
+}
+
+/// Plans `task` in two phases with the planner's stream of `seed`, its scratch on the
+/// stack (about 12 KB for `N = 7`); [`plan_in`] with scratch the caller keeps.
 ///
 /// # Errors
-/// Bad settings ([`TwoPhaseConfig::validate`]), or a rollout error from the task's own
-/// start (a rank-deficient start).
+/// As [`plan_in`].
 pub fn plan<const N: usize, const K: usize>(
     task: &Task<N, K>,
     config: &TwoPhaseConfig,
     seed: u64,
 ) -> Result<TwoPhasePlan<N, K>, Error> {
+    let mut scratch = TwoPhaseScratch::IDLE;
+    plan_in(&mut scratch, task, config, seed)
+}
+
+/// Plans `task` in two phases with the planner's stream of `seed`, in `scratch` (any
+/// earlier content is overwritten; the result does not depend on it).
+///
+/// # Errors
+/// Bad settings ([`TwoPhaseConfig::validate`]), or a rollout error from the task's own
+/// start (a rank-deficient start).
+pub fn plan_in<const N: usize, const K: usize>(
+    scratch: &mut TwoPhaseScratch<N, K>,
+    task: &Task<N, K>,
+    config: &TwoPhaseConfig,
+    seed: u64,
+) -> Result<TwoPhasePlan<N, K>, Error> {
     config.validate()?;
+    let TwoPhaseScratch { phase2, work, pool } = scratch;
     let mut stream = Stream::new(seed);
     let q0 = *task.start();
-    let (_, reach_f) = inverse(task, config.margin, &q0, IK_STARTS, &mut stream);
-    let mut phase2 = task.clone();
+    let (_, reach_f) = inverse_in(work, task, config.margin, &q0, IK_STARTS, &mut stream);
+    phase2.clone_from(task);
     let mut best = Best::<N, K>::new(q0);
     best.reach_f = reach_f;
     if reach_f > REACH_TOLERANCE {
@@ -254,11 +304,11 @@ pub fn plan<const N: usize, const K: usize>(
     let patience = 4 * nz as u32 + 8;
     let mut refused = false;
     let mut refused_starts = 0u32;
-    let mut pool = [([0.0; MAX_Z], f64::INFINITY); SCREEN];
+    *pool = [([0.0; MAX_Z], f64::INFINITY); SCREEN];
     let mut next = STARTS_PER_SCREEN;
     while best.rollouts < config.max_rollouts {
         if next >= STARTS_PER_SCREEN {
-            screen(task, config, &mut pool, &mut best.rollouts, &mut stream);
+            screen(task, config, work, pool, &mut best.rollouts, &mut stream);
             next = 0;
         }
         let Some((z, gap)) = pool.get(next).copied() else {
@@ -272,7 +322,7 @@ pub fn plan<const N: usize, const K: usize>(
         best.starts += 1;
         let mut eval = |z: &Col, count: &mut u32| -> Option<(Res, bool)> {
             *count += 1;
-            evaluate(task, &mut phase2, config, z)
+            evaluate(task, phase2, config, z)
         };
         let mut lm = Lm {
             nz,
@@ -289,9 +339,9 @@ pub fn plan<const N: usize, const K: usize>(
             broyden: true,
         };
         let budget = config.max_rollouts;
-        let (found, zf) = lm.run(&z, &mut eval, &mut best.rollouts, budget);
+        let (found, zf) = lm.run(work, &z, &mut eval, &mut best.rollouts, budget);
         let Some(found) = found else {
-            if best.consider(task, &mut phase2, config, &zf) {
+            if best.consider(task, phase2, config, &zf) {
                 refused_starts += 1;
                 refused = true;
                 if refused_starts >= REFUSED_STARTS {
@@ -301,7 +351,7 @@ pub fn plan<const N: usize, const K: usize>(
             continue;
         };
         // Phase 1 within the wheels' bounds, or the next start.
-        match best.accept(task, &mut phase2, config, &found) {
+        match best.accept(task, phase2, config, &found) {
             Ok(true) => return Ok(best.finish(task, config)),
             Ok(false) => {
                 refused = true;
@@ -453,6 +503,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
 fn screen<const N: usize, const K: usize>(
     task: &Task<N, K>,
     config: &TwoPhaseConfig,
+    work: &mut LmWork,
     pool: &mut [(Col, f64); SCREEN],
     rollouts: &mut u32,
     stream: &mut Stream,
@@ -474,7 +525,7 @@ fn screen<const N: usize, const K: usize>(
         let Ok(o) = task.rollout(&to_eta::<K>(&x, 0), &mut ()) else {
             continue;
         };
-        let (q_ik, f) = inverse(task, config.margin, &o.q_final, 1, stream);
+        let (q_ik, f) = inverse_in(work, task, config.margin, &o.q_final, 1, stream);
         if f > REACH_TOLERANCE {
             continue;
         }
@@ -659,6 +710,19 @@ pub fn inverse<const N: usize, const K: usize>(
     starts: u32,
     stream: &mut Stream,
 ) -> ([f64; N], f64) {
+    let mut work = LmWork::ZERO;
+    inverse_in(&mut work, task, margin, first, starts, stream)
+}
+
+/// [`inverse`] with the LM's matrices in `work`.
+fn inverse_in<const N: usize, const K: usize>(
+    work: &mut LmWork,
+    task: &Task<N, K>,
+    margin: f64,
+    first: &[f64; N],
+    starts: u32,
+    stream: &mut Stream,
+) -> ([f64; N], f64) {
     let robot = task.robot();
     let com0 = task.com0();
     let target = *task.target();
@@ -699,7 +763,8 @@ pub fn inverse<const N: usize, const K: usize>(
             broyden: false,
         };
         let mut count = 0;
-        let (found, zf) = lm.run(&z, &mut eval, &mut count, IK_ITERATIONS * (N as u32 + 2));
+        let budget = IK_ITERATIONS * (N as u32 + 2);
+        let (found, zf) = lm.run(work, &z, &mut eval, &mut count, budget);
         let zf = found.unwrap_or(zf);
         let q = q_of::<N>(&zf);
         let pose = Frames::new(robot, &q).end_pose(&com0, IDENTITY_WXYZ);
@@ -739,6 +804,7 @@ impl Lm {
     /// `count` reaches `budget` (`None`, with the best `z`). `eval` counts into `count`.
     fn run<F: FnMut(&Col, &mut u32) -> Option<(Res, bool)>>(
         &mut self,
+        work: &mut LmWork,
         z0: &Col,
         eval: &mut F,
         count: &mut u32,
@@ -752,7 +818,8 @@ impl Lm {
             return (Some(z), z);
         }
         let mut merit = norm2(&r);
-        let mut jac = [[0.0; MAX_Z]; MAX_R];
+        let LmWork { jac, normal } = work;
+        *jac = [[0.0; MAX_Z]; MAX_R];
         let mut fresh = false;
         let mut lambda = 1e-3;
         let mut nu = 2.0;
@@ -790,7 +857,7 @@ impl Lm {
             if lambda > LAMBDA_MAX {
                 return (None, z);
             }
-            let Some((step, predicted)) = self.step(&jac, &r, lambda) else {
+            let Some((step, predicted)) = self.step(jac, normal, &r, lambda) else {
                 return (None, z);
             };
             let mut trial = z;
@@ -870,7 +937,13 @@ impl Lm {
     }
 
     /// `δ = Jᵀ y`, `(J Jᵀ + μ I) y = −r`; and the predicted decrease of `‖r‖²`.
-    fn step(&self, jac: &[[f64; MAX_Z]; MAX_R], r: &Res, lambda: f64) -> Option<(Col, f64)> {
+    fn step(
+        &self,
+        jac: &[[f64; MAX_Z]; MAX_R],
+        a: &mut [[f64; MAX_R]; MAX_R],
+        r: &Res,
+        lambda: f64,
+    ) -> Option<(Col, f64)> {
         let mut dmax = 0.0f64;
         for c in 0..self.nz {
             let d = jac.iter().take(self.nr).fold(0.0, |s, row| {
@@ -883,7 +956,7 @@ impl Lm {
             return None;
         }
         let mu = lambda * dmax;
-        let mut a = [[0.0; MAX_R]; MAX_R];
+        *a = [[0.0; MAX_R]; MAX_R];
         let mut b = [0.0; MAX_R];
         for (i, (ai, bi)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
             if i >= self.nr {
@@ -902,7 +975,7 @@ impl Lm {
             *ai.get_mut(i)? += mu;
             *bi = -*r.get(i)?;
         }
-        let y = solve_spd_in_place(&mut a, &b)?;
+        let y = solve_spd_in_place(a, &b)?;
         let mut step = [0.0; MAX_Z];
         for (row, yi) in jac.iter().zip(y.iter()).take(self.nr) {
             for (s, j) in step.iter_mut().zip(row.iter()).take(self.nz) {

@@ -24,6 +24,7 @@ use crate::kinematics::Frames;
 use crate::model::Robot;
 use crate::momentum::Momentum;
 use crate::retime::check_positive;
+use crate::rollout::{Sample, Sink};
 use crate::trajectory::MAX_STEPS;
 
 /// `max |s'(u)|` of the quintic.
@@ -188,6 +189,20 @@ impl<const N: usize> Preshape<N> {
         let (q, dq_du) = quintic(&self.q0, &self.qs, f64::from(j) / f64::from(self.steps));
         let t = self.duration();
         (q, dq_du.map(|v| v / t))
+    }
+
+    /// Writes the samples `j = 0 … S₁` into `sink` as a rollout writes its own (`t = j·dt`,
+    /// `q`, `q̇`): how `phase1.csv` and the flight image's phase-1 digest are made.
+    pub fn write<S: Sink<N>>(&self, sink: &mut S) {
+        for j in 0..=self.steps {
+            let (q, qd) = self.sample(j);
+            sink.sample(&Sample {
+                step: j,
+                t: f64::from(j) * self.dt,
+                q,
+                qd,
+            });
+        }
     }
 
     /// The attitude control's demand along the written samples (one kinematics and one

@@ -19,6 +19,12 @@
 //!    digest are compared with the host's re-timing (`host-sim retime`), and the
 //!    re-timing's instructions and static RAM are checked against their budgets.
 //!
+//! 8. a task with `[preshape]` is a two-phase block (`RLTASK04`, `RLTASK05` with
+//!    `--retime`): the image plans both phases in one call and reports phase 2 as a plan,
+//!    plus how the search ended, phase 1's digest, the wheels' demand and `q_s`; all are
+//!    compared bit for bit with the host's two-phase plan
+//!    (`crate::flight::flight_outputs`), and `--retime` re-times phase 2.
+//!
 //! Each step is one function, called in this order by `Args::run`: `task_block_retimed`
 //! (1), `Image::read` (2), `emulate` (3), `parse` (4), the host's `outputs_of` and
 //! `compare` (5, 7), `within_budgets` and `report` (6).
@@ -107,6 +113,9 @@ pub struct TargetJson {
     pub qemu_seconds: f64,
     /// The image.
     pub elf: String,
+    /// A two-phase task: how the search ended on the target (`converged`, `exhausted`,
+    /// `beyond_reach`, `preshape_bounds`); the one call is `calls` = 1.
+    pub two_phase_stop: Option<String>,
 }
 
 fn repo_root() -> PathBuf {
@@ -403,20 +412,43 @@ fn retime_report(lines: &[String]) -> Result<Option<RetimeReport>, CliError> {
     }))
 }
 
-/// The host's re-timing of `eta` with the block's settings, as the image reports it.
+/// The image's `TWOPHASE` line and `QS` lines against the host's: the first difference.
+fn compare_two_phase(
+    host: &crate::flight::FlightTwoPhase,
+    lines: &[String],
+) -> Result<Option<String>, CliError> {
+    let on_target = fields(lines, "TWOPHASE")
+        .ok_or_else(|| CliError::failed("the image reported no TWOPHASE line"))?;
+    for (k, want) in &host.line {
+        let got = field(&on_target, k)?;
+        if got != want {
+            return Ok(Some(format!("two-phase {k}: host {want}, target {got}")));
+        }
+    }
+    let q_s = indexed(lines, "QS")?;
+    if q_s != host.q_s_bits {
+        return Ok(Some(format!(
+            "two-phase q_s: host {:?}, target {q_s:?}",
+            host.q_s_bits
+        )));
+    }
+    Ok(None)
+}
+
+/// The host's re-timing of `eta` from `task`'s start with the block's settings, as the
+/// image reports it.
 fn host_retime(
-    lt: &taskfile::LoadedTask,
+    task: &reactionless::Task<FLIGHT_N, 4>,
     eta: &[f64],
     qdd_max_deg: &[f64; FLIGHT_N],
     grid: u32,
     margin: f64,
 ) -> Result<RetimeReport, CliError> {
-    let task = lt.task::<7, 4>()?;
     let mut e = [[0.0; 2]; 4];
     for (slot, v) in e.iter_mut().flatten().zip(eta) {
         *slot = *v;
     }
-    let r = crate::retiming::compute(&task, &e, qdd_max_deg, grid, margin)?;
+    let r = crate::retiming::compute(task, &e, qdd_max_deg, grid, margin)?;
     let last = r
         .setpoints
         .last()
@@ -477,15 +509,29 @@ impl Args {
         let on_target = parse(&emulation)?;
         // The same task on the host (its capacity differs from the image's 64: results do not
         // depend on it).
-        let on_host = crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
-        let (diff, retimed) = compare(
+        let two_phase = match lt.file.preshape {
+            Some(_) => Some(crate::flight::flight_outputs(&lt, &overrides)?),
+            None => None,
+        };
+        let (on_host, retime_task) = match &two_phase {
+            Some(t) => (t.outputs.clone(), t.phase2.clone()),
+            None => (
+                crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs,
+                lt.task::<FLIGHT_N, 4>()?,
+            ),
+        };
+        let (mut diff, retimed) = compare(
             &lt,
+            &retime_task,
             self.accel_deg_s2,
             settings.as_ref(),
             &on_host,
             &on_target,
             &emulation.lines,
         )?;
+        if let (None, Some(t)) = (&diff, &two_phase) {
+            diff = compare_two_phase(t, &emulation.lines)?;
+        }
         let within = within_budgets(&image.elf, &on_target);
         let calls = on_target.instructions.calls;
         if calls != on_target.frames {
@@ -494,7 +540,7 @@ impl Args {
                 on_target.frames
             )));
         }
-        let report = report(
+        let mut report = report(
             &lt,
             &image,
             &emulation,
@@ -503,6 +549,12 @@ impl Args {
             diff,
             within,
         );
+        report.two_phase_stop = two_phase.as_ref().and_then(|t| {
+            t.line
+                .iter()
+                .find(|(k, _)| k == "stop")
+                .map(|(_, v)| v.clone())
+        });
         if self.json {
             println!(
                 "{}",
@@ -672,9 +724,11 @@ fn parse(emulation: &Emulation) -> Result<OnTarget, CliError> {
 }
 
 /// The first difference between host and target (the plan, then with `settings` the
-/// re-timing of the image's `RETIME` line against the host's), and that re-timing.
+/// re-timing of the image's `RETIME` line against the host's re-timing from `task`'s
+/// start: the task's, or phase 2's for a two-phase plan), and that re-timing.
 fn compare(
     lt: &taskfile::LoadedTask,
+    task: &reactionless::Task<FLIGHT_N, 4>,
     accel_deg_s2: Option<f64>,
     settings: Option<&RetimeSettings<FLIGHT_N>>,
     on_host: &Outputs,
@@ -692,7 +746,7 @@ fn compare(
         let qdd_deg = lt
             .qdd_max_deg::<FLIGHT_N>(accel_deg_s2)?
             .ok_or_else(|| CliError::internal("re-timing settings without limits"))?;
-        let host_retime = host_retime(lt, &on_host.eta, &qdd_deg, s.grid, s.margin)?;
+        let host_retime = host_retime(task, &on_host.eta, &qdd_deg, s.grid, s.margin)?;
         if diff.is_none() && host_retime != target_retime {
             diff = Some(format!(
                 "re-timing: host {host_retime:?}, target {target_retime:?}"
@@ -755,6 +809,7 @@ fn report(
         within_budgets: within,
         qemu_seconds: emulation.seconds,
         elf: image.path.display().to_string(),
+        two_phase_stop: None,
     }
 }
 
@@ -789,6 +844,12 @@ fn print_report(r: &TargetJson, setpoints: Option<u32>) {
         );
     }
     println!("flash                      {} bytes", r.flash_bytes);
+    if let Some(stop) = &r.two_phase_stop {
+        println!(
+            "two-phase plan             {stop}: both phases in one call of {} instructions",
+            r.max_instructions_per_call
+        );
+    }
     println!(
         "plan on target             {} in {} iterations, {} rollouts; emulation {:.1} s",
         if r.converged {

@@ -305,6 +305,11 @@ pub struct JointPath<const N: usize> {
     pub t: Vec<f64>,
     /// Configurations (rad), one per time.
     pub q: Vec<[f64; N]>,
+    /// The start (rad) of an attitude-controlled phase 1 flown before this path (phase 2
+    /// of a two-phase plan, which starts where phase 1 ended): the base then starts this
+    /// path where phase 1 moved it on the flown robot, not where it moved the nominal one,
+    /// and [`fly`]'s end pose includes the difference. `None` for a single-phase path.
+    pub preshaped_from: Option<[f64; N]>,
 }
 
 impl<const N: usize> JointPath<N> {
@@ -334,7 +339,11 @@ impl<const N: usize> JointPath<N> {
         if t.len() < 2 {
             return Err(err("fewer than two samples".into()));
         }
-        Ok(Self { t, q })
+        Ok(Self {
+            t,
+            q,
+            preshaped_from: None,
+        })
     }
 }
 
@@ -354,7 +363,11 @@ pub struct Figures {
 }
 
 /// Flies `path` open-loop through the truth model of `lt` with `draw` applied: the base
-/// starts at rest with the identity attitude unless the draw has a base rate.
+/// starts at rest with the identity attitude unless the draw has a base rate. After a
+/// phase 1 ([`JointPath::preshaped_from`]) the attitude control held the base attitude
+/// and the CoM stayed put, so the base starts displaced by the difference between the
+/// dispersed and the nominal robot's shift `c(q₀) − c(q_s)` (system CoM in the base frame),
+/// and the end pose is moved by it.
 pub fn fly<const N: usize, const K: usize>(
     lt: &LoadedTask,
     path: &JointPath<N>,
@@ -378,9 +391,23 @@ pub fn fly<const N: usize, const K: usize>(
     if let Some(e) = truth.error() {
         return Err(CliError::failed(format!("truth model failed: {e}")));
     }
-    let end = truth
+    let mut end = truth
         .end_pose()
         .ok_or_else(|| CliError::internal("truth model saw no samples"))?;
+    if let Some(q0) = &path.preshaped_from {
+        let nominal: Task<N, K> = lt.task::<N, K>()?;
+        let shift = |t: &Task<N, K>| {
+            let (c0, cs) = (
+                Frames::new(t.robot(), q0).com,
+                Frames::new(t.robot(), t.start()).com,
+            );
+            c0 - cs
+        };
+        let d = shift(&task) - shift(&nominal);
+        for (p, dv) in end.position.iter_mut().zip(d.iter()) {
+            *p += dv;
+        }
+    }
     let e = end.error_to(task.target());
     Ok((
         Figures {

@@ -510,7 +510,7 @@ impl LoadedTask {
     }
 
     /// [`LoadedTask::qdd_max_deg`] for `n` joints.
-    fn qdd_values(
+    pub fn qdd_values(
         &self,
         accel_deg_s2: Option<f64>,
         n: usize,

@@ -208,3 +208,147 @@ fn generate_refuses_bad_generic_flags() {
         assert!(!out.exists());
     }
 }
+
+/// `retime` of a two-phase plan: phase 1 as planned, phase 2 re-timed into `OUT/phase2/`,
+/// and `check OUT` verifies phase 1, the join and the re-timed phase 2 within the limits;
+/// limits below phase 1's acceleration are refused, naming the key, nothing written.
+/// Verifies RL-SIM-TWO-006.
+#[test]
+fn a_two_phase_plan_is_retimed_whole() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("p");
+    let (code, _, err) = host_sim(args!("plan", &generic_task(), "--out", &plan));
+    assert_eq!(code, Some(0), "{err}");
+    let out = tmp.path().join("r");
+    let (code, _, err) = host_sim(args!("retime", &plan, "--out", &out, "--accel-deg-s2", "5"));
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("phase 2 re-timed"), "{err}");
+    assert_eq!(
+        std::fs::read(out.join("phase1.csv")).unwrap(),
+        std::fs::read(plan.join("phase1.csv")).unwrap()
+    );
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("phase2/summary.json")).unwrap())
+            .unwrap();
+    assert!(
+        summary["duration_s"].as_f64().unwrap() < summary["original_duration_s"].as_f64().unwrap()
+    );
+    let (code, table, err) = host_sim(args!("check", &out));
+    assert_eq!(code, Some(0), "{table}{err}");
+    assert!(table.contains("phase 1 wheels' torque"), "{table}");
+    assert!(table.contains("phase 2: "), "{table}");
+
+    // Phase 1 accelerates at up to 2 °/s²: a re-timing limit of 1 °/s² is refused.
+    let refused = tmp.path().join("x");
+    let (code, _, err) = host_sim(args!(
+        "retime",
+        &plan,
+        "--out",
+        &refused,
+        "--accel-deg-s2",
+        "1"
+    ));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("[preshape] qdd_max_deg_s2"), "{err}");
+    assert!(!refused.exists());
+}
+
+/// `disperse` of a two-phase plan flies phase 2 from where phase 1 moved each dispersed
+/// robot's base: the base disturbance is phase 2's, sample by sample, while the end-pose
+/// error adds the dispersed robot's phase-1 base shift against the nominal one, recomputed
+/// here from `model`'s CoM of the exported dispersed URDF (the end position differs from
+/// phase 2's alone by exactly that shift, so their errors obey the triangle inequality).
+/// Verifies RL-SIM-TWO-007.
+#[test]
+fn a_two_phase_plan_is_dispersed_whole() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("p");
+    let (code, _, err) = host_sim(args!("plan", &generic_task(), "--out", &plan));
+    assert_eq!(code, Some(0), "{err}");
+    let flags = [
+        "--samples",
+        "4",
+        "--seed",
+        "7",
+        "--mass-rel-sigma",
+        "0.05",
+        "--com-sigma-m",
+        "0.01",
+    ];
+    let whole = tmp.path().join("w");
+    let only2 = tmp.path().join("o");
+    for (dir, out) in [(plan.clone(), &whole), (plan.join("phase2"), &only2)] {
+        let mut a: Vec<std::ffi::OsString> = vec!["disperse".into(), dir.into()];
+        a.extend(flags.iter().map(Into::into));
+        a.extend(["--out".into(), out.into()]);
+        let a: Vec<&std::ffi::OsStr> = a.iter().map(|s| s.as_os_str()).collect();
+        let (code, _, err) = host_sim(&a);
+        assert_eq!(code, Some(0), "{err}");
+    }
+    let rows = |dir: &Path| -> Vec<std::collections::HashMap<String, String>> {
+        let mut r = csv::Reader::from_path(dir.join("runs.csv")).unwrap();
+        r.deserialize().map(|x| x.unwrap()).collect()
+    };
+    let (w, o) = (rows(&whole), rows(&only2));
+    assert_eq!(w.len(), 4);
+    let num =
+        |r: &std::collections::HashMap<String, String>, k: &str| -> f64 { r[k].parse().unwrap() };
+    for (a, b) in w.iter().zip(&o) {
+        assert_eq!(a["base_disturbance_deg"], b["base_disturbance_deg"]);
+        assert_eq!(a["orientation_error_deg"], b["orientation_error_deg"]);
+    }
+    // Sample 0's phase-1 base shift, dispersed minus nominal, from the CoM in the base frame.
+    let urdf = tmp.path().join("s0.urdf");
+    let (code, _, err) = host_sim(args!(
+        "disperse",
+        &plan,
+        "--seed",
+        "7",
+        "--mass-rel-sigma",
+        "0.05",
+        "--com-sigma-m",
+        "0.01",
+        "--export-sample",
+        "0",
+        "--out",
+        &urdf
+    ));
+    assert_eq!(code, Some(0), "{err}");
+    let start = |p: &Path| -> String {
+        let t: toml::Table = toml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        t["start"]["q_deg"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_float().unwrap().to_string())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let (q0, qs) = (
+        start(&plan.join("task.toml")),
+        start(&plan.join("phase2/task.toml")),
+    );
+    let com = |u: &Path, q: &str| -> [f64; 3] {
+        let (code, out, err) = host_sim(args!("model", "--urdf", u, "--q-deg", q));
+        assert_eq!(code, Some(0), "{err}");
+        let v: Value = serde_json::from_str(&out).unwrap();
+        [0, 1, 2].map(|i| v["com"][i].as_f64().unwrap())
+    };
+    let nominal = root().join("spec/chaser7.urdf");
+    let moved = |u: &Path| -> [f64; 3] {
+        let (a, b) = (com(u, &q0), com(u, &qs));
+        [0, 1, 2].map(|i| a[i] - b[i])
+    };
+    let (md, mn) = (moved(&urdf), moved(&nominal));
+    let d = [0, 1, 2].map(|i| md[i] - mn[i]);
+    let shift = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let (ew, eo) = (
+        num(&w[0], "position_error_m"),
+        num(&o[0], "position_error_m"),
+    );
+    assert!(shift > 1e-4, "the draw moves the base: {shift}");
+    assert!(
+        (ew - shift).abs() <= eo + 1e-12,
+        "whole {ew}, shift {shift}, phase 2 {eo}"
+    );
+}

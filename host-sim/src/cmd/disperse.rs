@@ -1,5 +1,12 @@
 //! `host-sim disperse`: Monte Carlo over dispersed truth models of one planned path.
 //!
+//! A two-phase plan (docs/twophase.md) is dispersed whole: phase 2's path (`phase2/`) is
+//! flown from where phase 1, attitude controlled, moved each dispersed robot's base
+//! ([`crate::dispersion::JointPath::preshaped_from`]), so the end-pose figures are the
+//! whole plan's against the task's target; the base disturbance is phase 2's (phase 1's
+//! attitude is held), and a drawn initial base rate is the rate the attitude control
+//! leaves when it lets go.
+//!
 //! The joint path of a plan, rollout or re-timed directory is flown open-loop, exactly as
 //! its setpoints command it, through `--samples` truth models whose masses, CoMs, inertia
 //! tensors, joint axes and initial base rate are drawn by `crate::dispersion` (settings:
@@ -76,7 +83,13 @@ impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
         let started = std::time::Instant::now();
-        let lt = read_bundle(&self.dir)?;
+        // A two-phase plan: phase 2's bundle and path, after phase 1 from the task's start.
+        let (lt, data, top) = if crate::artifacts::is_two_phase(&self.dir) {
+            let p2 = crate::artifacts::phase2_dir(&self.dir);
+            (read_bundle(&p2)?, p2, Some(read_bundle(&self.dir)?))
+        } else {
+            (read_bundle(&self.dir)?, self.dir.clone(), None)
+        };
         let settings = self.settings(&lt)?;
         if let Some(k) = self.export_sample {
             return with_dims!(
@@ -111,6 +124,8 @@ impl Args {
             .or_input(|| "--jobs")?;
         let run = Run {
             dir: &self.dir,
+            data: &data,
+            top: top.as_ref(),
             lt: &lt,
             settings,
             seed: self.seed,
@@ -182,7 +197,12 @@ impl clap::FromArgMatches for DispersionFlags {
 
 /// One disperse run's inputs.
 struct Run<'a> {
+    /// The directory asked for.
     dir: &'a Path,
+    /// Where the path and its summary are: `dir`, or its `phase2/` for a two-phase plan.
+    data: &'a Path,
+    /// A two-phase plan: the task as given (phase 1 from its start).
+    top: Option<&'a LoadedTask>,
     lt: &'a LoadedTask,
     settings: Settings,
     seed: u64,
@@ -237,7 +257,8 @@ fn dir_summary(dir: &Path) -> Result<DirSummary, CliError> {
 }
 
 fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliError> {
-    let (path, csv) = read_path::<N>(run.dir)?;
+    let (mut path, csv) = read_path::<N>(run.data)?;
+    path.preshaped_from = run.top.map(LoadedTask::start::<N>).transpose()?;
     let lt = run.lt;
     let nominal_draw = Draw::nominal(&lt.chain);
     let (nominal, _) = dispersion::fly::<N, K>(lt, &path, &nominal_draw)?;
@@ -276,7 +297,7 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
         rows: rows.len(),
         settings: run.settings,
         nominal,
-        dir_summary: dir_summary(run.dir)?,
+        dir_summary: dir_summary(run.data)?,
         statistics: Statistics::of(&figures),
         sensitivity,
     };

@@ -136,7 +136,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     if let Some(section) = &lt.file.preshape {
         if args.retime {
             return Err(CliError::input(
-                "--retime: a two-phase plan is re-timed phase by phase: retime OUT/phase2",
+                "--retime: re-time a two-phase plan after planning it: host-sim retime OUT --out OUT2 (phase 1 as planned, phase 2 re-timed)",
             ));
         }
         return crate::preshaping::plan::<N, K>(

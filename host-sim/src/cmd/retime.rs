@@ -72,7 +72,7 @@ impl Args {
             .ok_or_else(|| {
                 CliError::input(format!("{}: summary.json has no eta", self.dir.display()))
             })?;
-        with_dims!(
+        let (s, path) = with_dims!(
             lt.chain.dof(),
             run_n,
             &lt,
@@ -81,7 +81,15 @@ impl Args {
             self.grid,
             &self.out,
             self.plots
-        )
+        )?;
+        eprintln!(
+            "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
+            s.duration_s,
+            s.original_duration_s,
+            number(s.base_disturbance_deg),
+            path.display()
+        );
+        Ok(())
     }
 }
 
@@ -144,7 +152,7 @@ impl Args {
             .pointer("/phase1/duration_s")
             .and_then(serde_json::Value::as_f64)
             .unwrap_or(f64::NAN);
-        with_dims!(
+        let (s, _) = with_dims!(
             lt2.chain.dof(),
             run_n,
             &lt2,
@@ -156,15 +164,19 @@ impl Args {
         )?;
         let path = dir.commit()?;
         eprintln!(
-            "retime: two phases: phase 1 {phase1_s:.2} s as planned (attitude controlled), phase 2 re-timed into {}",
-            path.join(PHASE2_DIR).display()
+            "retime: two phases, {:.2} s: phase 1 {phase1_s:.2} s as planned (attitude controlled), phase 2 re-timed to {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
+            phase1_s + s.duration_s,
+            s.duration_s,
+            s.original_duration_s,
+            number(s.base_disturbance_deg),
+            path.display()
         );
         Ok(())
     }
 }
 
 /// Re-times `eta` of `lt` into `out` through [`retiming::write`], which `plan --retime`
-/// calls too.
+/// calls too; its summary and where it went.
 pub fn run_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     eta: &[f64],
@@ -172,7 +184,7 @@ pub fn run_n<const N: usize, const K: usize>(
     grid: Option<u32>,
     out: &Path,
     plots: bool,
-) -> Result<(), CliError> {
+) -> Result<(retiming::RetimeSummary, std::path::PathBuf), CliError> {
     let task = lt.task::<N, K>()?;
     let eta = parse_eta::<K>(eta)?;
     let qdd = lt.qdd_max_deg::<N>(accel_deg_s2)?.ok_or_else(|| {
@@ -194,12 +206,5 @@ pub fn run_n<const N: usize, const K: usize>(
         plots,
     )?;
     let path = dir.commit()?;
-    eprintln!(
-        "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
-        s.duration_s,
-        s.original_duration_s,
-        number(s.base_disturbance_deg),
-        path.display()
-    );
-    Ok(())
+    Ok((s, path))
 }

@@ -209,6 +209,14 @@ fn generate_refuses_bad_generic_flags() {
     }
 }
 
+/// The generic task planned in two phases into `dir/p` (converged).
+fn planned(dir: &Path) -> PathBuf {
+    let plan = dir.join("p");
+    let (code, _, err) = host_sim(args!("plan", &generic_task(), "--out", &plan));
+    assert_eq!(code, Some(0), "{err}");
+    plan
+}
+
 /// `retime` of a two-phase plan: phase 1 as planned, phase 2 re-timed into `OUT/phase2/`,
 /// and `check OUT` verifies phase 1, the join and the re-timed phase 2 within the limits;
 /// limits below phase 1's acceleration are refused, naming the key, nothing written.
@@ -216,9 +224,7 @@ fn generate_refuses_bad_generic_flags() {
 #[test]
 fn a_two_phase_plan_is_retimed_whole() {
     let tmp = tempfile::tempdir().unwrap();
-    let plan = tmp.path().join("p");
-    let (code, _, err) = host_sim(args!("plan", &generic_task(), "--out", &plan));
-    assert_eq!(code, Some(0), "{err}");
+    let plan = planned(tmp.path());
     let out = tmp.path().join("r");
     let (code, _, err) = host_sim(args!("retime", &plan, "--out", &out, "--accel-deg-s2", "5"));
     assert_eq!(code, Some(0), "{err}");
@@ -262,12 +268,9 @@ fn a_two_phase_plan_is_retimed_whole() {
 #[test]
 fn a_two_phase_plan_is_dispersed_whole() {
     let tmp = tempfile::tempdir().unwrap();
-    let plan = tmp.path().join("p");
-    let (code, _, err) = host_sim(args!("plan", &generic_task(), "--out", &plan));
-    assert_eq!(code, Some(0), "{err}");
-    let flags = [
-        "--samples",
-        "4",
+    let plan = planned(tmp.path());
+    // The same draws for every command: seed 7, 5 % mass, 1 cm CoM.
+    let draws = [
         "--seed",
         "7",
         "--mass-rel-sigma",
@@ -275,15 +278,20 @@ fn a_two_phase_plan_is_dispersed_whole() {
         "--com-sigma-m",
         "0.01",
     ];
+    let run = |head: &[&std::ffi::OsStr], tail: &[&std::ffi::OsStr]| {
+        let mut a: Vec<&std::ffi::OsStr> = head.to_vec();
+        a.extend(draws.iter().map(std::ffi::OsStr::new));
+        a.extend(tail);
+        let (code, _, err) = host_sim(&a);
+        assert_eq!(code, Some(0), "{err}");
+    };
     let whole = tmp.path().join("w");
     let only2 = tmp.path().join("o");
     for (dir, out) in [(plan.clone(), &whole), (plan.join("phase2"), &only2)] {
-        let mut a: Vec<std::ffi::OsString> = vec!["disperse".into(), dir.into()];
-        a.extend(flags.iter().map(Into::into));
-        a.extend(["--out".into(), out.into()]);
-        let a: Vec<&std::ffi::OsStr> = a.iter().map(|s| s.as_os_str()).collect();
-        let (code, _, err) = host_sim(&a);
-        assert_eq!(code, Some(0), "{err}");
+        run(
+            args!("disperse", &dir, "--samples", "4"),
+            args!("--out", out),
+        );
     }
     let rows = |dir: &Path| -> Vec<std::collections::HashMap<String, String>> {
         let mut r = csv::Reader::from_path(dir.join("runs.csv")).unwrap();
@@ -299,21 +307,10 @@ fn a_two_phase_plan_is_dispersed_whole() {
     }
     // Sample 0's phase-1 base shift, dispersed minus nominal, from the CoM in the base frame.
     let urdf = tmp.path().join("s0.urdf");
-    let (code, _, err) = host_sim(args!(
-        "disperse",
-        &plan,
-        "--seed",
-        "7",
-        "--mass-rel-sigma",
-        "0.05",
-        "--com-sigma-m",
-        "0.01",
-        "--export-sample",
-        "0",
-        "--out",
-        &urdf
-    ));
-    assert_eq!(code, Some(0), "{err}");
+    run(
+        args!("disperse", &plan),
+        args!("--export-sample", "0", "--out", &urdf),
+    );
     let start = |p: &Path| -> String {
         let t: toml::Table = toml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
         t["start"]["q_deg"]

@@ -597,6 +597,22 @@ mod tests {
         }
     }
 
+    /// Every single-byte corruption of the encoded block `bytes`, and its last byte cut off,
+    /// fail to decode.
+    fn every_flip_and_truncation_is_caught(bytes: &[u8]) {
+        let n = bytes.len();
+        for i in 0..n {
+            let mut bad = [0u8; 4096];
+            bad[..n].copy_from_slice(bytes);
+            bad[i] ^= 0x10;
+            assert!(decode::<7>(&bad[..n]).is_err(), "flip at byte {i}");
+        }
+        assert_eq!(
+            decode::<7>(&bytes[..bytes.len() - 1]),
+            Err(Error::Block(BlockFault::Truncated))
+        );
+    }
+
     /// CRC-32 of "123456789" is the standard check value 0xCBF43926.
     /// Verifies RL-BLOCK-002.
     #[test]
@@ -626,15 +642,7 @@ mod tests {
         assert_eq!(len, retime_block_len(7));
         assert_eq!(&buf[..8], &MAGIC_RETIME);
         assert_eq!(decode::<7>(&buf[..len]).unwrap(), retime_block());
-        for i in 0..len {
-            let mut bad = buf;
-            bad[i] ^= 0x10;
-            assert!(decode::<7>(&bad[..len]).is_err(), "flip at byte {i}");
-        }
-        assert_eq!(
-            decode::<7>(&buf[..len - 1]),
-            Err(Error::Block(BlockFault::Truncated))
-        );
+        every_flip_and_truncation_is_caught(&buf[..len]);
         let mut plain = [0u8; 4096];
         let n = encode(&block(), &mut plain).unwrap();
         assert_eq!(&plain[..8], &MAGIC);
@@ -704,15 +712,7 @@ mod tests {
             assert_eq!(len, sectioned_block_len(7, retime, false) + 76);
             assert_eq!(&buf[..8], &magic);
             assert_eq!(decode::<7>(&buf[..len]).unwrap(), two);
-            for i in 0..len {
-                let mut bad = buf;
-                bad[i] ^= 0x10;
-                assert!(decode::<7>(&bad[..len]).is_err(), "flip at byte {i}");
-            }
-            assert_eq!(
-                decode::<7>(&buf[..len - 1]),
-                Err(Error::Block(BlockFault::Truncated))
-            );
+            every_flip_and_truncation_is_caught(&buf[..len]);
             let mut one = [0u8; 4096];
             let n = encode(&base, &mut one).unwrap();
             assert_eq!(&one[16..n - 4], &buf[16..n - 4]);

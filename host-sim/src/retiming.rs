@@ -6,20 +6,22 @@
 //! re-timing of one η: grid, solve, every setpoint) and [`write`] (the bundle:
 //! `trajectory.csv` with header `t,q1..qN,qd1..qdN,qdd1..qddN`, `summary.json`, `task.toml`
 //! with the limits and grid used, `robot.urdf`, and with `--plots` the rate and
-//! acceleration figures, whose data and stamp are filled here and drawn by `plots`).
+//! acceleration figures, whose data and stamp are filled here and drawn by `plots`);
+//! [`retime_bundle`] (a plan's or rollout's directory) and [`retime_two_phase`] (a
+//! two-phase plan's directory whole: phase 1 as planned, phase 2 re-timed).
 
 use crate::artifacts::PoseJson;
 use crate::error::{CliError, Context};
 use crate::output::OutDir;
 use crate::plots::{self, RetimePlotData};
-use crate::taskfile::{self, LoadedTask};
+use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::version::Build;
 use reactionless::TRUTH_SUBSTEPS;
 use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
 use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
 use serde::{Deserialize, Serialize};
 use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// `summary.json` of a re-timed bundle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -340,4 +342,154 @@ fn write_bundle<const N: usize>(
     let text = toml::to_string(&table).or_internal(|| "writing the task")?;
     dir.write(taskfile::BUNDLE_TASK, text.as_bytes())?;
     dir.write(taskfile::BUNDLE_URDF, urdf.as_bytes())
+}
+
+/// Reads a plan's or rollout's bundle from `dir` (`task.toml`, `robot.urdf`, the η of
+/// `summary.json`) and re-times it into `out` ([`write`]); the summary and where it went.
+pub fn retime_bundle(
+    dir: &Path,
+    accel_deg_s2: Option<f64>,
+    grid: Option<u32>,
+    out: &Path,
+    plots: bool,
+) -> Result<(RetimeSummary, PathBuf), CliError> {
+    let (lt, eta) = read_planned(dir)?;
+    crate::with_dims!(
+        lt.chain.dof(),
+        write_dir,
+        &lt,
+        &eta,
+        accel_deg_s2,
+        grid,
+        out,
+        plots
+    )
+}
+
+/// A bundle and its η: `dir`'s `task.toml`, `robot.urdf` and `summary.json`.
+fn read_planned(dir: &Path) -> Result<(LoadedTask, Vec<f64>), CliError> {
+    let read = |name: &str| {
+        std::fs::read_to_string(dir.join(name)).map_err(|e| {
+            CliError::input(format!(
+                "{}: cannot read {name}: {e} (give the --out directory of plan or rollout)",
+                dir.display()
+            ))
+        })
+    };
+    let lt = taskfile::from_texts(
+        &dir.join(BUNDLE_TASK),
+        &read(BUNDLE_TASK)?,
+        &read(BUNDLE_URDF)?,
+    )?;
+    let summary: serde_json::Value = serde_json::from_str(&read("summary.json")?)
+        .or_input(|| format!("{}: summary.json", dir.display()))?;
+    let eta: Vec<f64> = summary
+        .get("eta")
+        .and_then(|v| serde_json::from_value(v.clone()).ok())
+        .ok_or_else(|| CliError::input(format!("{}: summary.json has no eta", dir.display())))?;
+    Ok((lt, eta))
+}
+
+/// Re-times a two-phase plan's directory `dir` whole into `out`: phase 1 as planned (the
+/// shortest quintic within `[preshape]`'s acceleration limit and the wheels' bounds, which a
+/// faster phase 1 would break), phase 2 re-timed into `out/phase2/`, the rest of `dir`
+/// copied. Refused when the re-timing's acceleration limit of some joint is below phase 1's.
+/// Phase 1's duration (s), phase 2's summary and where it went.
+pub fn retime_two_phase(
+    dir: &Path,
+    accel_deg_s2: Option<f64>,
+    grid: Option<u32>,
+    out: &Path,
+    plots: bool,
+) -> Result<(f64, RetimeSummary, PathBuf), CliError> {
+    use crate::artifacts::{PHASE1_CSV, PHASE2_DIR, phase2_dir};
+    let read = |name: &str| {
+        std::fs::read_to_string(dir.join(name))
+            .or_input(|| format!("{}: cannot read {name}", dir.display()))
+    };
+    let lt = taskfile::from_texts(
+        &dir.join(BUNDLE_TASK),
+        &read(BUNDLE_TASK)?,
+        &read(BUNDLE_URDF)?,
+    )?;
+    let section = lt.file.preshape.ok_or_else(|| {
+        CliError::input(format!(
+            "{}: {BUNDLE_TASK} has no [preshape]",
+            dir.display()
+        ))
+    })?;
+    let (lt2, eta) = read_planned(&phase2_dir(dir))?;
+    // Phase 1 moves at up to [preshape]'s acceleration limit: the re-timing's must not be
+    // lower, or the whole plan would break it in phase 1.
+    if let Some(qdd) = lt2.qdd_values(accel_deg_s2, lt2.chain.dof())? {
+        if let Some((j, a)) = qdd
+            .iter()
+            .enumerate()
+            .find(|(_, a)| **a < section.qdd_max_deg_s2)
+        {
+            return Err(CliError::input(format!(
+                "{}: phase 1 was planned at [preshape] qdd_max_deg_s2 = {}, above the re-timing's acceleration limit {a} deg/s² of joint {}: plan again with [preshape] qdd_max_deg_s2 ≤ {a}",
+                dir.display(),
+                section.qdd_max_deg_s2,
+                j + 1
+            )));
+        }
+    }
+    let plan: serde_json::Value = serde_json::from_str(&read("plan.json")?)
+        .or_input(|| format!("{}: plan.json", dir.display()))?;
+    let phase1_s = plan
+        .pointer("/phase1/duration_s")
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(f64::NAN);
+    let od = OutDir::create(out)?;
+    for name in [BUNDLE_TASK, BUNDLE_URDF, PHASE1_CSV, "plan.json"] {
+        let bytes = std::fs::read(dir.join(name))
+            .or_input(|| format!("{}: cannot read {name}", dir.display()))?;
+        od.write(name, &bytes)?;
+    }
+    let (s, _) = crate::with_dims!(
+        lt2.chain.dof(),
+        write_dir,
+        &lt2,
+        &eta,
+        accel_deg_s2,
+        grid,
+        &od.path(PHASE2_DIR),
+        plots
+    )?;
+    Ok((phase1_s, s, od.commit()?))
+}
+
+/// Re-times `eta` of `lt` into the directory `out` through [`write`] under the task's (or
+/// `accel_deg_s2`'s) acceleration limits and grid; its summary and where it went.
+fn write_dir<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    eta: &[f64],
+    accel_deg_s2: Option<f64>,
+    grid: Option<u32>,
+    out: &Path,
+    plots: bool,
+) -> Result<(RetimeSummary, PathBuf), CliError> {
+    let task = lt.task::<N, K>()?;
+    let eta = crate::args::parse_eta::<K>(eta)?;
+    let qdd = lt.qdd_max_deg::<N>(accel_deg_s2)?.ok_or_else(|| {
+        CliError::input(format!(
+            "{}: no acceleration limits: give --accel-deg-s2 or set [limits] qdd_max_deg_s2",
+            lt.path.display()
+        ))
+    })?;
+    let grid = grid.unwrap_or(lt.file.retime.grid);
+    let dir = OutDir::create(out)?;
+    let s = write(
+        lt,
+        &task,
+        &eta,
+        &qdd,
+        grid,
+        lt.file.retime.margin,
+        &dir,
+        plots,
+    )?;
+    let path = dir.commit()?;
+    Ok((s, path))
 }

@@ -219,7 +219,8 @@ fn planned(dir: &Path) -> PathBuf {
 
 /// `retime` of a two-phase plan: phase 1 as planned, phase 2 re-timed into `OUT/phase2/`,
 /// and `check OUT` verifies phase 1, the join and the re-timed phase 2 within the limits;
-/// limits below phase 1's acceleration are refused, naming the key, nothing written.
+/// `plan --retime` writes the same into `OUT/retimed/`; limits below phase 1's
+/// acceleration are refused, naming the key, nothing written.
 /// Verifies RL-SIM-TWO-006.
 #[test]
 fn a_two_phase_plan_is_retimed_whole() {
@@ -243,6 +244,26 @@ fn a_two_phase_plan_is_retimed_whole() {
     assert_eq!(code, Some(0), "{table}{err}");
     assert!(table.contains("phase 1 wheels' torque"), "{table}");
     assert!(table.contains("phase 2: "), "{table}");
+
+    // `plan --retime` writes the same whole re-timed plan into OUT/retimed/.
+    let both = tmp.path().join("b");
+    let (code, _, err) = host_sim(args!(
+        "plan",
+        &generic_task(),
+        "--out",
+        &both,
+        "--retime",
+        "--accel-deg-s2",
+        "5"
+    ));
+    assert_eq!(code, Some(0), "{err}");
+    for f in ["phase1.csv", "phase2/trajectory.csv"] {
+        assert_eq!(
+            std::fs::read(both.join("retimed").join(f)).unwrap(),
+            std::fs::read(out.join(f)).unwrap(),
+            "{f}"
+        );
+    }
 
     // Phase 1 accelerates at up to 2 °/s²: a re-timing limit of 1 °/s² is refused.
     let refused = tmp.path().join("x");

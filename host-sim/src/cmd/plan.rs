@@ -115,7 +115,8 @@ pub struct Args {
     #[arg(long)]
     plots: bool,
     /// Also re-time the plan to minimum time into OUT/retimed/ (as `host-sim retime`),
-    /// under `[limits] qdd_max_deg_s2` or `--accel-deg-s2`.
+    /// under `[limits] qdd_max_deg_s2` or `--accel-deg-s2`; a two-phase plan whole (phase 1
+    /// as planned, phase 2 re-timed), once converged.
     #[arg(long)]
     retime: bool,
     /// Acceleration limit of every joint for `--retime` (deg/s²).
@@ -134,14 +135,27 @@ impl Args {
 fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result<(), CliError> {
     let (config, asked) = lt.plan_settings(HOST_CAPACITY, &args.planning.overrides())?;
     if let Some(section) = &lt.file.preshape {
+        crate::preshaping::plan::<N, K>(lt, section, &config, &asked, &args.out, args.plots)?;
         if args.retime {
-            return Err(CliError::input(
-                "--retime: re-time a two-phase plan after planning it: host-sim retime OUT --out OUT2 (phase 1 as planned, phase 2 re-timed)",
-            ));
+            // The whole plan, as `host-sim retime OUT` does it: phase 1 as planned, phase 2
+            // re-timed (only a converged plan gets here).
+            let (phase1_s, s, path) = crate::retiming::retime_two_phase(
+                &args.out,
+                args.accel_deg_s2,
+                None,
+                &args.out.join("retimed"),
+                args.plots,
+            )?;
+            eprintln!(
+                "retime: two phases, {:.2} s: phase 1 {phase1_s:.2} s as planned, phase 2 {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
+                phase1_s + s.duration_s,
+                s.duration_s,
+                s.original_duration_s,
+                number(s.base_disturbance_deg),
+                path.display()
+            );
         }
-        return crate::preshaping::plan::<N, K>(
-            lt, section, &config, &asked, &args.out, args.plots,
-        );
+        return Ok(());
     }
     let task = lt.task::<N, K>()?;
     let done = drive::plan::<N, K>(lt, config, true)?;

@@ -148,20 +148,19 @@ pub fn flight_outputs(lt: &LoadedTask, overrides: &Overrides) -> Result<FlightTw
     let mut phase1 = TrajectoryDigest::new();
     p.preshape.write(&mut phase1);
     let d = &p.demand;
-    let hex = |v: f64| bits(v);
     let line = vec![
         ("stop", p.stop.name().to_string()),
         ("starts", p.starts.to_string()),
-        ("reach_f", hex(p.reach_f)),
-        ("base", hex(p.base_disturbance)),
+        ("reach_f", bits(p.reach_f)),
+        ("base", bits(p.base_disturbance)),
         ("steps1", p.preshape.steps().to_string()),
         ("samples1", phase1.samples().to_string()),
         ("digest1", format!("{:#018x}", phase1.value())),
-        ("momentum", hex(d.momentum_nms)),
-        ("torque", hex(d.torque_nm)),
-        ("shift_x", hex(d.base_shift_m[0])),
-        ("shift_y", hex(d.base_shift_m[1])),
-        ("shift_z", hex(d.base_shift_m[2])),
+        ("momentum", bits(d.momentum_nms)),
+        ("torque", bits(d.torque_nm)),
+        ("shift_x", bits(d.base_shift_m[0])),
+        ("shift_y", bits(d.base_shift_m[1])),
+        ("shift_z", bits(d.base_shift_m[2])),
     ]
     .into_iter()
     .map(|(k, v)| (k.to_string(), v))

@@ -493,3 +493,29 @@ fn write_dir<const N: usize, const K: usize>(
     let path = dir.commit()?;
     Ok((s, path))
 }
+
+/// What `retime` and `plan --retime` print for a re-timed bundle at `path`.
+#[must_use]
+pub fn describe(s: &RetimeSummary, path: &Path) -> String {
+    format!(
+        "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
+        s.duration_s,
+        s.original_duration_s,
+        crate::goal::number(s.base_disturbance_deg),
+        path.display()
+    )
+}
+
+/// What `retime` and `plan --retime` print for a two-phase plan re-timed whole at `path`:
+/// phase 1 (`phase1_s`, as planned) and phase 2's summary `s`.
+#[must_use]
+pub fn describe_two_phase(phase1_s: f64, s: &RetimeSummary, path: &Path) -> String {
+    format!(
+        "retime: two phases, {:.2} s: phase 1 {phase1_s:.2} s as planned (attitude controlled), phase 2 re-timed to {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
+        phase1_s + s.duration_s,
+        s.duration_s,
+        s.original_duration_s,
+        crate::goal::number(s.base_disturbance_deg),
+        path.display()
+    )
+}

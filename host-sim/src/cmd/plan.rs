@@ -147,12 +147,8 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
                 args.plots,
             )?;
             eprintln!(
-                "retime: two phases, {:.2} s: phase 1 {phase1_s:.2} s as planned, phase 2 {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
-                phase1_s + s.duration_s,
-                s.duration_s,
-                s.original_duration_s,
-                number(s.base_disturbance_deg),
-                path.display()
+                "{}",
+                crate::retiming::describe_two_phase(phase1_s, &s, &path)
             );
         }
         return Ok(());
@@ -248,13 +244,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     };
     let path = dir.commit()?;
     if let Some(s) = retimed {
-        eprintln!(
-            "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}/retimed",
-            s.duration_s,
-            s.original_duration_s,
-            number(s.base_disturbance_deg),
-            path.display()
-        );
+        eprintln!("{}", retiming::describe(&s, &path.join("retimed")));
     }
     eprintln!("{}", human_summary(lt, &asked, &p, &json, &run, &path));
     if converged {

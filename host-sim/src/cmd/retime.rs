@@ -17,7 +17,6 @@
 //! acceleration limit is above the re-timing's for some joint (phase 1 would exceed it).
 
 use crate::error::CliError;
-use crate::goal::number;
 use crate::retiming;
 use std::path::PathBuf;
 
@@ -52,14 +51,7 @@ impl Args {
                 &self.out,
                 self.plots,
             )?;
-            eprintln!(
-                "retime: two phases, {:.2} s: phase 1 {phase1_s:.2} s as planned (attitude controlled), phase 2 re-timed to {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
-                phase1_s + s.duration_s,
-                s.duration_s,
-                s.original_duration_s,
-                number(s.base_disturbance_deg),
-                path.display()
-            );
+            eprintln!("{}", retiming::describe_two_phase(phase1_s, &s, &path));
             return Ok(());
         }
         let (s, path) = retiming::retime_bundle(
@@ -69,13 +61,7 @@ impl Args {
             &self.out,
             self.plots,
         )?;
-        eprintln!(
-            "retime: {:.2} s (was {:.2} s), base disturbance = {} deg -> {}",
-            s.duration_s,
-            s.original_duration_s,
-            number(s.base_disturbance_deg),
-            path.display()
-        );
+        eprintln!("{}", retiming::describe(&s, &path));
         Ok(())
     }
 }

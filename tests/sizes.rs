@@ -82,9 +82,9 @@ fn documented_two_phase_sizes() {
     assert_eq!(
         sizes,
         [
-            ("Preshape<7>", 128),
+            ("Preshape<7>", 136),
             ("Demand", 40),
-            ("TwoPhasePlan<7, 4>", 632),
+            ("TwoPhasePlan<7, 4>", 640),
             ("TwoPhaseScratch<7, 4>", 13416),
         ]
     );

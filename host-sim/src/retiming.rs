@@ -391,7 +391,7 @@ fn read_planned(dir: &Path) -> Result<(LoadedTask, Vec<f64>), CliError> {
 }
 
 /// Re-times a two-phase plan's directory `dir` whole into `out`: phase 1 as planned (the
-/// shortest quintic within `[preshape]`'s acceleration limit and the wheels' bounds, which a
+/// fastest path within `[preshape]`'s acceleration limit and the wheels' bounds, which a
 /// faster phase 1 would break), phase 2 re-timed into `out/phase2/`, the rest of `dir`
 /// copied. Refused when the re-timing's acceleration limit of some joint is below phase 1's.
 /// Phase 1's duration (s), phase 2's summary and where it went.

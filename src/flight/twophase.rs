@@ -25,9 +25,9 @@
 //! the joint-limit excess `p` of phase 2's path beyond the margin (as the multistart's),
 //! the standoff shortfall `s = max(0, standoff_m − ‖p_ee(q_s) − p_target‖)` while the angle
 //! to the target is below the standoff angle, and `d = max(0, T₁ − max_duration)/10 s` for
-//! phase 1's duration `T₁`: the larger of its continuous minimum under the rate and
-//! acceleration limits and 1.05 times the wheels' estimate ([`Preshape::wheel_duration`],
-//! 32 points), so the search prefers starts the wheels can serve in time. Steps solve `(J Jᵀ + μ I) y = −r`,
+//! phase 1's duration `T₁`: its continuous estimate under the rate and acceleration limits
+//! and the wheels' bounds, asked with 5 % to spare ([`Preshape::estimate`]), so the search
+//! prefers starts the wheels can serve in time. Steps solve `(J Jᵀ + μ I) y = −r`,
 //! `δ = Jᵀ y` (the minimum-norm LM step, `μ = λ·max diag JᵀJ`), `J` by forward differences
 //! and rank-1 Broyden corrections between rebuilds; `λ` as the multistart's (Nielsen).
 //! A start ends when `‖r‖` has not halved within `4(N + 2K) + 8` rollouts.
@@ -38,7 +38,7 @@
 //! (both scale as `1/T` and `1/T²`), and phase 2 is flown on the truth model: a plan whose
 //! base turns more than `max_base_disturbance` is not accepted (the next start is tried);
 //! a plan that needs longer than `max_duration` for that
-//! is refused and the next start tried; after eight starts that end (converged and
+//! is refused and the next start tried; after 24 starts that end (converged and
 //! refused, or stalled) where phase 1 needs longer than the longest allowed, the search
 //! ends [`TwoPhaseStop::PreshapeBounds`]. Otherwise after
 //! `max_rollouts` rollouts ([`TwoPhaseStop::Exhausted`], the closest plan reached).
@@ -50,7 +50,7 @@ use crate::error::{Error, Param};
 use crate::geometry::Pose;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::model::Robot;
-use crate::preshape::{Demand, Preshape};
+use crate::preshape::{Demand, Preshape, PreshapeLimits};
 use crate::random::Stream;
 use crate::retime::check_positive;
 use crate::rollout::Outcome;
@@ -76,13 +76,11 @@ const IK_ITERATIONS: u32 = 200;
 const SCREEN: usize = 8;
 /// LM starts taken from each batch, the shortest pre-shapes first.
 const STARTS_PER_SCREEN: usize = 3;
-/// Points of phase 1's path at which the search estimates the wheels' demand.
-const WHEEL_POINTS: u32 = 32;
 /// The search asks for phase 1 to fit its bounds with this much to spare on the estimate.
 const WHEEL_MARGIN: f64 = 1.05;
 /// Starts that end where phase 1 needs longer than the longest allowed, after which the
 /// search ends [`TwoPhaseStop::PreshapeBounds`].
-const REFUSED_STARTS: u32 = 8;
+const REFUSED_STARTS: u32 = 24;
 /// Slow-downs of phase 1 tried to meet the wheels' bounds.
 const STRETCHES: u32 = 4;
 
@@ -559,14 +557,15 @@ fn screen<const N: usize, const K: usize>(
     }
 }
 
-/// Phase 1 from the task's start to `qs` (rad): the shortest quintic within the robot's
-/// rate limit and `c.qdd_max`, slowed (at most [`STRETCHES`] times, each by the ratio its
-/// demand exceeds the bounds by, since `|h_w|` scales as `1/T` and its rate as `1/T²`)
-/// until the wheels' demand on its written samples is within `c.max_momentum` and
-/// `c.max_torque`; and whether it fits those bounds and `c.max_duration`.
+/// Phase 1 from the task's start to `qs` (rad): the fastest within the robot's rate limit,
+/// `c.qdd_max` and the wheels' bounds by their estimate ([`Preshape::fastest`]), slowed (at
+/// most [`STRETCHES`] times, each by the ratio its demand exceeds the bounds by, since
+/// `|h_w|` scales as `1/T` and its rate as `1/T²`) until the wheels' demand on its written
+/// samples is within `c.max_momentum` and `c.max_torque`; and whether it fits those bounds
+/// and `c.max_duration`.
 ///
 /// # Errors
-/// As [`Preshape::new`].
+/// As [`Preshape::fastest`].
 pub fn fit_preshape<const N: usize, const K: usize>(
     task: &Task<N, K>,
     c: &TwoPhaseConfig,
@@ -574,7 +573,7 @@ pub fn fit_preshape<const N: usize, const K: usize>(
 ) -> Result<(Preshape<N>, Demand, bool), Error> {
     let robot = task.robot();
     let dt = task.motion().dt();
-    let mut p = Preshape::new(task.start(), qs, robot.qd_max(), c.qdd_max, dt)?;
+    let mut p = Preshape::fastest(robot, task.start(), qs, &limits(robot, c, 1.0), dt)?;
     let mut d = p.demand(robot);
     for _ in 0..STRETCHES {
         let scale = (d.momentum_nms / c.max_momentum).max(libm::sqrt(d.torque_nm / c.max_torque));
@@ -593,6 +592,17 @@ pub fn fit_preshape<const N: usize, const K: usize>(
         && d.torque_nm <= c.max_torque
         && p.duration() <= c.max_duration;
     Ok((p, d, fits))
+}
+
+/// Phase 1's limits from the robot and `c`, the wheels' bounds divided by `margin` (their
+/// demand scales as `1/T` and `1/T²`, so the duration grows by `margin`).
+fn limits<const N: usize>(robot: &Robot<N>, c: &TwoPhaseConfig, margin: f64) -> PreshapeLimits {
+    PreshapeLimits {
+        qd_max: robot.qd_max(),
+        qdd_max: c.qdd_max,
+        max_momentum: c.max_momentum / margin,
+        max_torque: c.max_torque / (margin * margin),
+    }
 }
 
 /// `q` (rad) clamped into the robot's joint limits: the start phase 2 is rolled out from.
@@ -620,25 +630,15 @@ fn phase2_rollout<const N: usize, const K: usize>(
     phase2.rollout(&to_eta::<K>(z, N), &mut ()).ok()
 }
 
-/// Phase 1's duration as the search sees it (s): the larger of its continuous minimum under
-/// the rate and acceleration limits and [`WHEEL_MARGIN`] times the wheels' estimate.
+/// Phase 1's duration as the search sees it (s): [`Preshape::estimate`] with the wheels'
+/// bounds asked with [`WHEEL_MARGIN`] to spare.
 fn phase1_duration<const N: usize, const K: usize>(
     task: &Task<N, K>,
     c: &TwoPhaseConfig,
     qs: &[f64; N],
 ) -> f64 {
     let robot = task.robot();
-    Preshape::min_duration(task.start(), qs, robot.qd_max(), c.qdd_max).max(
-        WHEEL_MARGIN
-            * Preshape::wheel_duration(
-                robot,
-                task.start(),
-                qs,
-                c.max_momentum,
-                c.max_torque,
-                WHEEL_POINTS,
-            ),
-    )
+    Preshape::estimate(robot, task.start(), qs, &limits(robot, c, WHEEL_MARGIN))
 }
 
 /// The residual of `z` and whether it meets the goal (one rollout).

@@ -10,7 +10,7 @@
 //! the limits and grid used, which `host-sim check OUT` verifies.
 //!
 //! A two-phase plan (`phase1.csv` beside `phase2/`, docs/twophase.md) is re-timed whole:
-//! phase 1 stays as planned (it already is the shortest quintic within `[preshape]`'s
+//! phase 1 stays as planned (it already is the fastest path within `[preshape]`'s
 //! acceleration limit and the wheels' bounds, which a faster phase 1 would break), phase 2
 //! is re-timed as any plan into `OUT/phase2/`, and OUT holds the rest of DIR's files, so
 //! `check OUT` verifies phase 1, the join and the re-timed phase 2. Refused when phase 1's

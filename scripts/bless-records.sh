@@ -12,7 +12,8 @@
 # Each line: record name, task file, seed, refinement tolerance ("-" for none), strategy,
 # what refinement drives (planner or truth). Every record is made with --paper (success at
 # σ_e, refined only to the listed tolerance), the settings they were first blessed with,
-# whatever the goal's defaults are.
+# whatever the goal's defaults are. A task with [preshape] is recorded as a two-phase plan,
+# the listed tolerance being the search's (the two-* records: 1e-6, the default goal's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
@@ -38,4 +39,6 @@ arm9-a007-ms      tests/tasks/a/arm9/task_007.toml           1  1e-9  multistart
 arm12-a003-ms     tests/tasks/a/arm12/task_003.toml          4  -     multistart  planner
 arm6-a010-ms      tests/tasks/a/arm6/task_010.toml           5  1e-9  multistart  truth
 fixed-ref0-fa     tests/tasks/fixed/ref/1cm/ref-0.toml       1  1e-9  multistart  planner
+two-chaser7-j20   tests/tasks/g/chaser7/joint20/task_001.toml 1  1e-6  multistart  planner
+two-arm12-j30     tests/tasks/g/arm12/joint30/task_001.toml  1  1e-6  multistart  planner
 LIST

@@ -7,11 +7,10 @@
 //! the image then reports, computed on the host for `target` to compare.
 
 use crate::error::{CliError, Context};
-use crate::goal::status_name;
-use crate::records::{Outputs, PoseBits, bits};
+use crate::records::{Outputs, two_phase_outputs_of};
 use crate::taskfile::{LoadedTask, Overrides};
+use reactionless::Pose;
 use reactionless::block::{RetimeSettings, TaskBlock, encode, sectioned_block_len};
-use reactionless::{Pose, TrajectoryDigest};
 
 /// The flight robot's joint count (the image is built for it).
 pub const FLIGHT_N: usize = 7;
@@ -105,71 +104,21 @@ pub fn task_block_retimed(
 }
 
 /// What the flight image reports for a two-phase block of `lt` (firmware/src/main.rs,
-/// `plan_two_phase`), computed on the host: phase 2's plan as a record's outputs (from the
-/// task moved to `q_s`; no rollout when the target is beyond reach: `f` NaN, no pose, the
-/// empty digest), the `TWOPHASE` line's fields in order and `q_s`'s bit patterns; and
-/// phase 2's task.
+/// `plan_two_phase`), computed on the host: [`crate::records::two_phase_outputs_of`] with the
+/// flight image's swarm capacity; the `TWOPHASE` line's fields in order and `q_s`'s bit
+/// patterns; and phase 2's task.
 pub fn flight_outputs(lt: &LoadedTask, overrides: &Overrides) -> Result<FlightTwoPhase, CliError> {
-    let section = lt
-        .file
-        .preshape
-        .ok_or_else(|| CliError::input(format!("{}: no [preshape] section", lt.path.display())))?;
-    let (config, asked) = lt.plan_settings(FLIGHT_P, overrides)?;
-    let (mut task, _, p, _) = crate::preshaping::solve::<7, 4>(lt, &section, &config, &asked)?;
-    task.move_start(&p.q_s)
-        .map_err(|e| CliError::internal(format!("phase 2's start: {e}")))?;
-    let mut digest = TrajectoryDigest::new();
-    let (f, pose) = match &p.outcome {
-        Some(o) => {
-            task.rollout(&p.eta, &mut digest)
-                .map_err(|e| CliError::internal(format!("phase 2's rollout: {e}")))?;
-            (o.f, Some(o.end_pose))
-        }
-        None => (f64::NAN, None),
-    };
-    let eta: Vec<f64> = p.eta.iter().flatten().copied().collect();
-    let outputs = Outputs {
-        status: status_name(p.converged()).into(),
-        iterations: 0,
-        rollouts: p.rollouts,
-        stagnation_events: 0,
-        restarts: 0,
-        eta_bits: eta.iter().map(|v| bits(*v)).collect(),
-        eta,
-        f_bits: bits(f),
-        f,
-        end_pose_bits: PoseBits {
-            position: pose.map_or(vec![], |q| q.position.iter().map(|v| bits(*v)).collect()),
-            quat_wxyz: pose.map_or(vec![], |q| q.quat_wxyz.iter().map(|v| bits(*v)).collect()),
-        },
-        trajectory_samples: digest.samples(),
-        trajectory_digest: format!("{:#018x}", digest.value()),
-    };
-    let mut phase1 = TrajectoryDigest::new();
-    p.preshape.write(&mut phase1);
-    let d = &p.demand;
-    let line = vec![
-        ("stop", p.stop.name().to_string()),
-        ("starts", p.starts.to_string()),
-        ("reach_f", bits(p.reach_f)),
-        ("base", bits(p.base_disturbance)),
-        ("steps1", p.preshape.steps().to_string()),
-        ("samples1", phase1.samples().to_string()),
-        ("digest1", format!("{:#018x}", phase1.value())),
-        ("momentum", bits(d.momentum_nms)),
-        ("torque", bits(d.torque_nm)),
-        ("shift_x", bits(d.base_shift_m[0])),
-        ("shift_y", bits(d.base_shift_m[1])),
-        ("shift_z", bits(d.base_shift_m[2])),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k.to_string(), v))
-    .collect();
+    let run = two_phase_outputs_of::<FLIGHT_N, 4>(lt, overrides, FLIGHT_P)?;
+    let two = run
+        .outputs
+        .two_phase
+        .clone()
+        .ok_or_else(|| CliError::internal("a two-phase run without its outputs"))?;
     Ok(FlightTwoPhase {
-        outputs,
-        line,
-        q_s_bits: p.q_s.iter().map(|v| bits(*v)).collect(),
-        phase2: task,
+        outputs: run.outputs,
+        line: two.fields(),
+        q_s_bits: two.q_s_bits,
+        phase2: run.phase2,
     })
 }
 

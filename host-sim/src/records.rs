@@ -6,7 +6,9 @@
 //! [`Build`] that made it (`crate::version`), and the [`Outputs`]: status, iteration, rollout and stagnation
 //! counts, η, f and the end pose as exact IEEE-754 bit patterns ([`bits`]), and the
 //! FNV-1a-64 digest over the bit patterns of the whole trajectory
-//! ([`reactionless::TrajectoryDigest`]). [`outputs_of`] plans a task into outputs;
+//! ([`reactionless::TrajectoryDigest`]); for a two-phase plan ([`TwoPhaseOutputs`]) also how
+//! the search ended, phase 1's digest, the wheels' demand and `q_s`. [`outputs_of`] plans a
+//! task into outputs;
 //! [`first_difference`] compares two output sets in a fixed order. `record`, `replay` and
 //! `target` use them.
 //!
@@ -95,6 +97,68 @@ pub struct Outputs {
     pub eta: Vec<f64>,
     /// f as a number (informational).
     pub f: f64,
+    /// A two-phase plan's other outputs (a task with `[preshape]`; the fields above are
+    /// phase 2's, from `q_s`); absent for a single-phase plan.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub two_phase: Option<TwoPhaseOutputs>,
+}
+
+/// What a two-phase plan adds to [`Outputs`]: how the search ended, phase 1 and the wheels'
+/// demand, `q_s`; numbers as bit patterns. The flight image reports the same (its
+/// `TWOPHASE` and `QS` lines), so `target` compares them too.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TwoPhaseOutputs {
+    /// `converged`, `exhausted`, `beyond_reach` or `preshape_bounds`.
+    pub stop: String,
+    /// LM starts begun.
+    pub starts: u32,
+    /// The kinematic inverse's `f`, hex bit pattern.
+    pub reach_f_bits: String,
+    /// Phase 2's base disturbance on the truth model (rad; NaN when not flown), hex.
+    pub base_disturbance_bits: String,
+    /// Phase 1's integration steps.
+    pub phase1_steps: u32,
+    /// Phase 1's written samples.
+    pub phase1_samples: u32,
+    /// FNV-1a-64 over phase 1's samples (hex).
+    pub phase1_digest: String,
+    /// The wheels' largest momentum (N m s), hex.
+    pub momentum_bits: String,
+    /// The wheels' largest torque (N m), hex.
+    pub torque_bits: String,
+    /// The base shift at `q_s` (m), hex bit patterns.
+    pub base_shift_bits: Vec<String>,
+    /// `q_s` (rad), hex bit patterns.
+    pub q_s_bits: Vec<String>,
+}
+
+impl TwoPhaseOutputs {
+    /// Every field as `(name, value)`, in a fixed order; the names are the flight image's
+    /// `TWOPHASE` keys (then `q_s[i]`).
+    pub fn fields(&self) -> Vec<(String, String)> {
+        let mut v: Vec<(String, String)> = [
+            ("stop", self.stop.clone()),
+            ("starts", self.starts.to_string()),
+            ("reach_f", self.reach_f_bits.clone()),
+            ("base", self.base_disturbance_bits.clone()),
+            ("steps1", self.phase1_steps.to_string()),
+            ("samples1", self.phase1_samples.to_string()),
+            ("digest1", self.phase1_digest.clone()),
+            ("momentum", self.momentum_bits.clone()),
+            ("torque", self.torque_bits.clone()),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+        for (axis, b) in ["shift_x", "shift_y", "shift_z"]
+            .iter()
+            .zip(&self.base_shift_bits)
+        {
+            v.push(((*axis).to_string(), b.clone()));
+        }
+        v
+    }
 }
 
 /// `0x` and 16 hex digits of an `f64`'s bit pattern.
@@ -144,11 +208,25 @@ pub struct RecordedRun {
     pub refine_against: reactionless::RefineAgainst,
 }
 
-/// Plans `lt` (with the overrides) and computes the outputs a record holds.
+/// Plans `lt` (with the overrides) and computes the outputs a record holds; in two phases
+/// for a task with `[preshape]` ([`two_phase_outputs_of`]).
 pub fn outputs_of<const N: usize, const K: usize>(
     lt: &LoadedTask,
     overrides: &Overrides,
 ) -> Result<RecordedRun, CliError> {
+    if lt.file.preshape.is_some() {
+        let (config, _) = lt.plan_settings(HOST_CAPACITY, overrides)?;
+        let run = two_phase_outputs_of::<N, K>(lt, overrides, HOST_CAPACITY)?;
+        return Ok(RecordedRun {
+            outputs: run.outputs,
+            seed: config.seed,
+            // The tolerance the search was given: replayed as the refinement tolerance
+            // (with σ_e as the goal), it asks the same of the search.
+            refine_tolerance: Some(run.config.tolerance),
+            strategy: config.strategy,
+            refine_against: config.refine_against,
+        });
+    }
     let config = lt.planner(HOST_CAPACITY, overrides)?;
     let task = lt.task::<N, K>()?;
     let p = drive::plan::<N, K>(lt, config, false)?.plan;
@@ -179,11 +257,90 @@ pub fn outputs_of<const N: usize, const K: usize>(
             trajectory_digest: format!("{:#018x}", digest.value()),
             eta: p.eta.iter().flatten().copied().collect(),
             f: o.f,
+            two_phase: None,
         },
         seed: config.seed,
         refine_tolerance: config.refine_tolerance,
         strategy: config.strategy,
         refine_against: config.refine_against,
+    })
+}
+
+/// A two-phase plan as a record holds it ([`two_phase_outputs_of`]).
+pub struct TwoPhaseRun<const N: usize, const K: usize> {
+    /// Phase 2's plan as a record's outputs, with [`Outputs::two_phase`] set.
+    pub outputs: Outputs,
+    /// The settings the search was given.
+    pub config: reactionless::TwoPhaseConfig,
+    /// Phase 2's task (the task from `q_s`).
+    pub phase2: reactionless::Task<N, K>,
+}
+
+/// Plans `lt` (a task with `[preshape]`) in two phases with the settings of a planner of
+/// swarm capacity `capacity` and the overrides: phase 2's plan as a record's outputs (from
+/// the task moved to `q_s`; no rollout when the target is beyond reach: `f` NaN, no pose,
+/// the empty digest) and the rest in [`Outputs::two_phase`]. The flight image reports the
+/// same for a two-phase block (`crate::flight::flight_outputs`).
+pub fn two_phase_outputs_of<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    overrides: &Overrides,
+    capacity: usize,
+) -> Result<TwoPhaseRun<N, K>, CliError> {
+    let section = lt
+        .file
+        .preshape
+        .ok_or_else(|| CliError::input(format!("{}: no [preshape] section", lt.path.display())))?;
+    let (config, asked) = lt.plan_settings(capacity, overrides)?;
+    let (mut task, tp, p, _) = crate::preshaping::solve::<N, K>(lt, &section, &config, &asked)?;
+    task.move_start(&p.q_s)
+        .map_err(|e| CliError::internal(format!("phase 2's start: {e}")))?;
+    let mut digest = TrajectoryDigest::new();
+    let (f, pose) = match &p.outcome {
+        Some(o) => {
+            task.rollout(&p.eta, &mut digest)
+                .map_err(|e| CliError::internal(format!("phase 2's rollout: {e}")))?;
+            (o.f, Some(o.end_pose))
+        }
+        None => (f64::NAN, None),
+    };
+    let mut phase1 = TrajectoryDigest::new();
+    p.preshape.write(&mut phase1);
+    let d = &p.demand;
+    let eta: Vec<f64> = p.eta.iter().flatten().copied().collect();
+    let outputs = Outputs {
+        status: crate::goal::status_name(p.converged()).into(),
+        iterations: 0,
+        rollouts: p.rollouts,
+        stagnation_events: 0,
+        restarts: 0,
+        eta_bits: eta.iter().map(|v| bits(*v)).collect(),
+        eta,
+        f_bits: bits(f),
+        f,
+        end_pose_bits: PoseBits {
+            position: pose.map_or(vec![], |q| q.position.iter().map(|v| bits(*v)).collect()),
+            quat_wxyz: pose.map_or(vec![], |q| q.quat_wxyz.iter().map(|v| bits(*v)).collect()),
+        },
+        trajectory_samples: digest.samples(),
+        trajectory_digest: format!("{:#018x}", digest.value()),
+        two_phase: Some(TwoPhaseOutputs {
+            stop: p.stop.name().into(),
+            starts: p.starts,
+            reach_f_bits: bits(p.reach_f),
+            base_disturbance_bits: bits(p.base_disturbance),
+            phase1_steps: p.preshape.steps(),
+            phase1_samples: phase1.samples(),
+            phase1_digest: format!("{:#018x}", phase1.value()),
+            momentum_bits: bits(d.momentum_nms),
+            torque_bits: bits(d.torque_nm),
+            base_shift_bits: d.base_shift_m.iter().map(|v| bits(*v)).collect(),
+            q_s_bits: p.q_s.iter().map(|v| bits(*v)).collect(),
+        }),
+    };
+    Ok(TwoPhaseRun {
+        outputs,
+        config: tp,
+        phase2: task,
     })
 }
 
@@ -280,6 +437,21 @@ pub fn first_difference(a: &Outputs, b: &Outputs) -> Option<Difference> {
         a.trajectory_digest.clone(),
         b.trajectory_digest.clone(),
     ));
+    let phases = |o: &Outputs| o.two_phase.as_ref().map_or("one", |_| "two").to_string();
+    pairs.push(("phases".into(), phases(a), phases(b)));
+    if let (Some(x), Some(y)) = (&a.two_phase, &b.two_phase) {
+        for ((k, u), (_, v)) in x.fields().into_iter().zip(y.fields()) {
+            pairs.push((format!("two_phase.{k}"), u, v));
+        }
+        pairs.push((
+            "two_phase.q_s length".into(),
+            x.q_s_bits.len().to_string(),
+            y.q_s_bits.len().to_string(),
+        ));
+        for (i, (u, v)) in x.q_s_bits.iter().zip(&y.q_s_bits).enumerate() {
+            pairs.push((format!("two_phase.q_s[{i}]"), u.clone(), v.clone()));
+        }
+    }
     pairs
         .into_iter()
         .find(|(_, x, y)| x != y)

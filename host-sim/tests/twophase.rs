@@ -370,3 +370,59 @@ fn a_two_phase_plan_is_dispersed_whole() {
         "whole {ew}, shift {shift}, phase 2 {eo}"
     );
 }
+
+/// `record` of a two-phase task records the two-phase plan (phase 2's plan, how the search
+/// ended, phase 1's digest, the wheels' demand, `q_s`), and `replay` reproduces it; a
+/// changed `q_s` bit or phase-1 digest, or the two-phase part removed, is named (exit 1).
+/// Verifies RL-SIM-TWO-008.
+#[test]
+fn a_two_phase_plan_is_recorded_and_replayed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = tmp.path().join("rec.json");
+    let (code, _, err) = host_sim(&[
+        "record".as_ref(),
+        generic_task().as_os_str(),
+        "--out".as_ref(),
+        rec.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&rec).unwrap()).unwrap();
+    let two = &v["outputs"]["two_phase"];
+    assert_eq!(two["stop"], "converged");
+    assert_eq!(v["outputs"]["status"], "converged");
+    assert_eq!(two["q_s_bits"].as_array().unwrap().len(), 7);
+    assert!(two["phase1_steps"].as_u64().unwrap() > 0);
+    assert_eq!(
+        two["phase1_samples"].as_u64().unwrap(),
+        two["phase1_steps"].as_u64().unwrap() + 1
+    );
+    let (code, _, err) = host_sim(&["replay".as_ref(), rec.as_os_str()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("identical"), "{err}");
+    let bad_path = tmp.path().join("bad.json");
+    let flip = |s: &str| format!("{:#018x}", u64::from_str_radix(&s[2..], 16).unwrap() ^ 1);
+    let mut cases: Vec<(Value, &str)> = Vec::new();
+    let mut bad = v.clone();
+    let q = bad["outputs"]["two_phase"]["q_s_bits"][3]
+        .as_str()
+        .unwrap()
+        .to_string();
+    bad["outputs"]["two_phase"]["q_s_bits"][3] = Value::String(flip(&q));
+    cases.push((bad, "mismatch in two_phase.q_s[3]"));
+    let mut bad = v.clone();
+    let d = bad["outputs"]["two_phase"]["phase1_digest"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    bad["outputs"]["two_phase"]["phase1_digest"] = Value::String(flip(&d));
+    cases.push((bad, "mismatch in two_phase.digest1"));
+    let mut bad = v.clone();
+    bad["outputs"].as_object_mut().unwrap().remove("two_phase");
+    cases.push((bad, "mismatch in phases: recorded one, replayed two"));
+    for (bad, want) in cases {
+        std::fs::write(&bad_path, serde_json::to_string_pretty(&bad).unwrap()).unwrap();
+        let (code, _, err) = host_sim(&["replay".as_ref(), bad_path.as_os_str()]);
+        assert_eq!(code, Some(1), "{want}: {err}");
+        assert!(err.contains(want), "{want}: {err}");
+    }
+}

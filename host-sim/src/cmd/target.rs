@@ -291,6 +291,9 @@ fn target_outputs(lines: &[String]) -> Result<(Outputs, u64, u64), CliError> {
         },
         trajectory_samples: num("samples")?,
         trajectory_digest: format!("{:#018x}", hex(field(&r, "digest")?)?),
+        // A two-phase plan's other outputs are its TWOPHASE and QS lines
+        // (`compare_two_phase`).
+        two_phase: None,
     };
     let stack = lines
         .iter()
@@ -514,7 +517,14 @@ impl Args {
             None => None,
         };
         let (on_host, retime_task) = match &two_phase {
-            Some(t) => (t.outputs.clone(), t.phase2.clone()),
+            // Phase 2's plan here; the rest by `compare_two_phase`.
+            Some(t) => (
+                Outputs {
+                    two_phase: None,
+                    ..t.outputs.clone()
+                },
+                t.phase2.clone(),
+            ),
             None => (
                 crate::with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs,
                 lt.task::<FLIGHT_N, 4>()?,

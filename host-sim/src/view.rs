@@ -1,8 +1,9 @@
 //! The 3-D replay page of an output directory: one self-contained HTML file.
 //!
 //! Owns [`ViewData`] (everything the page draws, computed here in Rust, per sample) and
-//! [`render_dir`] / [`write_dir`], which read a `plan` or `rollout` directory **as
-//! written** (`task.toml`, `robot.urdf`, `summary.json`, `trajectory.csv`) and fill the
+//! [`render_dir`] / [`write_dir`], which read a `plan`, `rollout` or `retime` directory
+//! **as written** (`task.toml`, `robot.urdf`, `summary.json`, `trajectory.csv`; a
+//! two-phase plan's `phase1.csv` and `phase2/`, re-timed or not) and fill the
 //! page template `host-sim/assets/view.html` (hand-written Canvas 2-D and JavaScript, no
 //! library, nothing loaded from the network: scripts, styles and data are inline).
 //!
@@ -20,7 +21,7 @@
 //! centre-of-mass conservation); the truth model's base attitude (~1e-3°) is drawn as a
 //! magnified triad at the base centre of mass, its true value printed beside it.
 
-use crate::artifacts::{Summary, read_bundle, read_output_file};
+use crate::artifacts::{read_bundle, read_output_file};
 use crate::error::{CliError, Context};
 use crate::output::{FileKind, read_trajectory_csv, write_file};
 use crate::taskfile::LoadedTask;
@@ -162,10 +163,52 @@ pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
         return data_of_two_phase(dir, shown);
     }
     let lt = read_bundle(dir)?;
-    let summary: Summary = serde_json::from_str(&read_output_file(dir, "summary.json")?)
+    let summary: EndPoseOf = serde_json::from_str(&read_output_file(dir, "summary.json")?)
         .or_input(|| format!("{}: summary.json", dir.display()))?;
     let csv = read_output_file(dir, "trajectory.csv")?;
-    with_dims!(lt.chain.dof(), data_n, &lt, dir, shown, &summary, &csv)
+    with_dims!(
+        lt.chain.dof(),
+        data_n,
+        &lt,
+        dir,
+        shown,
+        &summary.end_pose.position,
+        &csv
+    )
+}
+
+/// The end pose of a `summary.json`: a plan's or rollout's ([`crate::artifacts::Summary`])
+/// or a re-timed bundle's ([`crate::retiming::RetimeSummary`]); the rest is not read.
+#[derive(serde::Deserialize)]
+struct EndPoseOf {
+    end_pose: PositionOf,
+}
+
+#[derive(serde::Deserialize)]
+struct PositionOf {
+    position: [f64; 3],
+}
+
+/// The samples of `dir`'s `trajectory.csv` text: a plan's or rollout's
+/// ([`read_trajectory_csv`]) or a re-timed bundle's ([`crate::retiming::read_csv`], its
+/// accelerations not drawn), told apart by the header.
+fn samples_of<const N: usize>(
+    dir: &Path,
+    csv: &str,
+) -> Result<Vec<reactionless::Sample<N>>, CliError> {
+    if csv.lines().next() == Some(crate::retiming::header(N).as_str()) {
+        Ok(crate::retiming::read_csv::<N>(dir, csv)?
+            .iter()
+            .map(|s| reactionless::Sample {
+                step: s.step,
+                t: s.t,
+                q: s.q,
+                qd: s.qd,
+            })
+            .collect())
+    } else {
+        read_trajectory_csv::<N>(dir, csv)
+    }
 }
 
 /// A two-phase plan's page: phase 1 (`phase1.csv`, base attitude held) then phase 2
@@ -200,7 +243,7 @@ fn two_phase_n<const N: usize, const K: usize>(
     let task: Task<N, K> = lt.task::<N, K>()?;
     let task2: Task<N, K> = lt2.task::<N, K>()?;
     let phase1 = read_trajectory_csv::<N>(dir, csv1)?;
-    let phase2 = read_trajectory_csv::<N>(&crate::artifacts::phase2_dir(dir), csv2)?;
+    let phase2 = samples_of::<N>(&crate::artifacts::phase2_dir(dir), csv2)?;
     if phase1.last().map(|s| s.q) != phase2.first().map(|s| s.q) {
         return Err(CliError::input(format!(
             "{}: phase 1 does not end where phase 2 starts (files from different runs?)",
@@ -214,19 +257,19 @@ fn data_n<const N: usize, const K: usize>(
     lt: &LoadedTask,
     dir: &Path,
     shown: &Path,
-    summary: &Summary,
+    end: &[f64; 3],
     csv: &str,
 ) -> Result<ViewData, CliError> {
     let task: Task<N, K> = lt.task::<N, K>()?;
-    let samples = read_trajectory_csv::<N>(dir, csv)?;
+    let samples = samples_of::<N>(dir, csv)?;
     let data = build(lt, &task, &[], &samples, &task, shown)?;
     let last = data.ee.last().copied().unwrap_or([f64::NAN; 3]);
-    if last != summary.end_pose.position {
+    if &last != end {
         return Err(CliError::input(format!(
             "{}: the end pose of trajectory.csv's last sample, {last:?}, is not summary.json's \
              end_pose.position {:?} (files from different runs?)",
             dir.display(),
-            summary.end_pose.position
+            end
         )));
     }
     Ok(data)

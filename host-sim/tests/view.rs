@@ -178,6 +178,56 @@ fn the_page_is_self_contained_and_carries_the_runs_own_numbers() {
     }
 }
 
+/// `view` of a re-timed bundle (`retime`'s output) draws its setpoints: the same count and
+/// times as its trajectory.csv, q exactly as written, the end at summary.json's end pose,
+/// and the truth model's base angle peaking at the bundle's own base disturbance.
+/// Verifies RL-SIM-VIEW-005.
+#[test]
+fn a_retimed_bundle_is_drawn_from_its_setpoints() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("rollout");
+    rollout(&root().join("spec/tasks/paper.toml"), ETA_HAT, &plan);
+    let re = tmp.path().join("retimed");
+    let o = host_sim()
+        .arg("retime")
+        .arg(&plan)
+        .args(["--accel-deg-s2", "5", "--out"])
+        .arg(&re)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let page_path = tmp.path().join("retimed.html");
+    let o = host_sim()
+        .arg("view")
+        .arg(&re)
+        .arg("--out")
+        .arg(&page_path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = embedded(&std::fs::read_to_string(&page_path).unwrap());
+    let summary = json(&re.join("summary.json"));
+    let csv = std::fs::read_to_string(re.join("trajectory.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(d["t"].as_array().unwrap().len(), rows.len());
+    assert!(rows.len() < 3001, "re-timed: {} setpoints", rows.len());
+    for (s, row) in rows.iter().enumerate().step_by(97) {
+        assert_eq!(d["t"][s].as_f64().unwrap(), row[0]);
+        assert_eq!(f64s(&d["q"][s]), row[1..=7]);
+    }
+    assert_eq!(
+        f64s(&d["ee"][rows.len() - 1]),
+        f64s(&summary["end_pose"]["position"])
+    );
+    let max = f64s(&d["base_angle_deg"]).into_iter().fold(0.0, f64::max);
+    let want = summary["base_disturbance_deg"].as_f64().unwrap();
+    assert!((max - want).abs() <= 1e-9 * want, "{max} vs {want}");
+}
+
 /// `view` refuses what is not a consistent output directory (exit code 2, a message naming
 /// the file, nothing written): no directory, no summary.json, and a summary.json whose end
 /// pose is not the trajectory's.

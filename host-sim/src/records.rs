@@ -377,7 +377,9 @@ pub struct Difference {
 
 /// The first quantity that differs between two output sets, in a fixed order.
 pub fn first_difference(a: &Outputs, b: &Outputs) -> Option<Difference> {
+    let phases = |o: &Outputs| o.two_phase.as_ref().map_or("one", |_| "two").to_string();
     let mut pairs: Vec<(String, String, String)> = vec![
+        ("phases".into(), phases(a), phases(b)),
         ("status".into(), a.status.clone(), b.status.clone()),
         (
             "iterations".into(),
@@ -437,9 +439,12 @@ pub fn first_difference(a: &Outputs, b: &Outputs) -> Option<Difference> {
         a.trajectory_digest.clone(),
         b.trajectory_digest.clone(),
     ));
-    let phases = |o: &Outputs| o.two_phase.as_ref().map_or("one", |_| "two").to_string();
-    pairs.push(("phases".into(), phases(a), phases(b)));
     if let (Some(x), Some(y)) = (&a.two_phase, &b.two_phase) {
+        pairs.push((
+            "two_phase.base_shift length".into(),
+            x.base_shift_bits.len().to_string(),
+            y.base_shift_bits.len().to_string(),
+        ));
         for ((k, u), (_, v)) in x.fields().into_iter().zip(y.fields()) {
             pairs.push((format!("two_phase.{k}"), u, v));
         }

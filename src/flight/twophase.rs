@@ -474,10 +474,16 @@ impl<const N: usize, const K: usize> Best<N, K> {
             },
         );
         let dt = task.motion().dt();
+        // A plan that did not converge: phase 1 to its q_s as a converged one's would be
+        // (the wheels' bounds asked, slowed as needed), whether or not it fits.
         let (preshape, demand) = self.preshape.unwrap_or_else(|| {
-            let p = Preshape::new(&self.q0, &qs, robot.qd_max(), c.qdd_max, dt)
-                .unwrap_or_else(|_| Preshape::at_rest(&self.q0, dt));
-            (p, p.demand(robot))
+            fit_preshape(task, c, &qs).map_or_else(
+                |_| {
+                    let p = Preshape::at_rest(&self.q0, dt);
+                    (p, p.demand(robot))
+                },
+                |(p, d, _)| (p, d),
+            )
         });
         TwoPhasePlan {
             q_s: qs,

@@ -133,7 +133,9 @@ impl<const N: usize> Preshape<N> {
     }
 
     /// [`Preshape::fastest`]'s duration before rounding to the grid (s): a continuous
-    /// measure for a search. Infinite for a non-finite angle or limit.
+    /// measure for a search. Infinite where [`Preshape::fastest`] returns an error (a
+    /// non-finite angle, a rate or acceleration limit not positive and finite, a wheel
+    /// bound NaN or not positive); an infinite wheel bound is no bound.
     #[must_use]
     pub fn estimate(
         robot: &Robot<N>,

@@ -29,7 +29,6 @@
 //! [`Kind`]; each key seeds a [`reactionless::random::Stream`].
 
 use crate::error::CliError;
-use crate::output::read_trajectory_csv;
 use crate::retiming;
 pub use crate::taskfile::DispersionSection as Settings;
 use crate::taskfile::LoadedTask;
@@ -313,20 +312,15 @@ pub struct JointPath<const N: usize> {
 }
 
 impl<const N: usize> JointPath<N> {
-    /// Reads `dir`'s `trajectory.csv` text: a plan's or rollout's
-    /// ([`crate::output::read_trajectory_csv`]) or a re-timed bundle's
-    /// ([`crate::retiming::read_csv`]), told apart by the header; only `t` and `q` are
-    /// used. The path must have two samples or more, finite, at increasing times. Errors
-    /// name the file, the row and what was wrong.
+    /// Reads `dir`'s `trajectory.csv` text, a plan's or a re-timed bundle's
+    /// ([`crate::retiming::read_samples`]); only `t` and `q` are used. The path must have
+    /// two samples or more, finite, at increasing times. Errors name the file, the row and
+    /// what was wrong.
     pub fn parse(dir: &Path, csv: &str) -> Result<Self, CliError> {
-        let (t, q): (Vec<f64>, Vec<[f64; N]>) =
-            if csv.lines().next() == Some(retiming::header(N).as_str()) {
-                let rows = retiming::read_csv::<N>(dir, csv)?;
-                rows.iter().map(|s| (s.t, s.q)).unzip()
-            } else {
-                let rows = read_trajectory_csv::<N>(dir, csv)?;
-                rows.iter().map(|s| (s.t, s.q)).unzip()
-            };
+        let (t, q): (Vec<f64>, Vec<[f64; N]>) = retiming::read_samples::<N>(dir, csv)?
+            .iter()
+            .map(|s| (s.t, s.q))
+            .unzip();
         let err = |m: String| CliError::input(format!("{}: trajectory.csv: {m}", dir.display()));
         for (row, (tk, qk)) in t.iter().zip(&q).enumerate() {
             if !tk.is_finite() || qk.iter().any(|v| !v.is_finite()) {

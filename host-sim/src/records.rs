@@ -215,16 +215,15 @@ pub fn outputs_of<const N: usize, const K: usize>(
     overrides: &Overrides,
 ) -> Result<RecordedRun, CliError> {
     if lt.file.preshape.is_some() {
-        let (config, _) = lt.plan_settings(HOST_CAPACITY, overrides)?;
         let run = two_phase_outputs_of::<N, K>(lt, overrides, HOST_CAPACITY)?;
         return Ok(RecordedRun {
             outputs: run.outputs,
-            seed: config.seed,
+            seed: run.planner.seed,
             // The tolerance the search was given: replayed as the refinement tolerance
             // (with σ_e as the goal), it asks the same of the search.
             refine_tolerance: Some(run.config.tolerance),
-            strategy: config.strategy,
-            refine_against: config.refine_against,
+            strategy: run.planner.strategy,
+            refine_against: run.planner.refine_against,
         });
     }
     let config = lt.planner(HOST_CAPACITY, overrides)?;
@@ -272,6 +271,8 @@ pub struct TwoPhaseRun<const N: usize, const K: usize> {
     pub outputs: Outputs,
     /// The settings the search was given.
     pub config: reactionless::TwoPhaseConfig,
+    /// The planner settings they were made from (seed, strategy, refinement).
+    pub planner: reactionless::PlannerConfig,
     /// Phase 2's task (the task from `q_s`).
     pub phase2: reactionless::Task<N, K>,
 }
@@ -340,6 +341,7 @@ pub fn two_phase_outputs_of<const N: usize, const K: usize>(
     Ok(TwoPhaseRun {
         outputs,
         config: tp,
+        planner: config,
         phase2: task,
     })
 }

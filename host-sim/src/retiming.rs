@@ -183,6 +183,28 @@ pub fn header(n: usize) -> String {
     h
 }
 
+/// The samples of `dir`'s `trajectory.csv` text: a plan's or rollout's
+/// ([`crate::output::read_trajectory_csv`]) or a re-timed bundle's ([`read_csv`], its
+/// accelerations dropped), told apart by the header.
+pub fn read_samples<const N: usize>(
+    dir: &Path,
+    csv: &str,
+) -> Result<Vec<reactionless::Sample<N>>, CliError> {
+    if csv.lines().next() == Some(header(N).as_str()) {
+        Ok(read_csv::<N>(dir, csv)?
+            .iter()
+            .map(|s| reactionless::Sample {
+                step: s.step,
+                t: s.t,
+                q: s.q,
+                qd: s.qd,
+            })
+            .collect())
+    } else {
+        crate::output::read_trajectory_csv::<N>(dir, csv)
+    }
+}
+
 /// The digest of a setpoint sequence, as 16 hex digits.
 pub fn digest<const N: usize>(setpoints: &[Setpoint<N>]) -> String {
     let mut d = TrajectoryDigest::new();

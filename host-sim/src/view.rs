@@ -189,28 +189,6 @@ struct PositionOf {
     position: [f64; 3],
 }
 
-/// The samples of `dir`'s `trajectory.csv` text: a plan's or rollout's
-/// ([`read_trajectory_csv`]) or a re-timed bundle's ([`crate::retiming::read_csv`], its
-/// accelerations not drawn), told apart by the header.
-fn samples_of<const N: usize>(
-    dir: &Path,
-    csv: &str,
-) -> Result<Vec<reactionless::Sample<N>>, CliError> {
-    if csv.lines().next() == Some(crate::retiming::header(N).as_str()) {
-        Ok(crate::retiming::read_csv::<N>(dir, csv)?
-            .iter()
-            .map(|s| reactionless::Sample {
-                step: s.step,
-                t: s.t,
-                q: s.q,
-                qd: s.qd,
-            })
-            .collect())
-    } else {
-        read_trajectory_csv::<N>(dir, csv)
-    }
-}
-
 /// A two-phase plan's page: phase 1 (`phase1.csv`, base attitude held) then phase 2
 /// (`phase2/trajectory.csv`, truth model), both drawn in the task's inertial frame (the
 /// CoM of `t = 0` stays put through both), phase 2's times after phase 1's.
@@ -243,7 +221,7 @@ fn two_phase_n<const N: usize, const K: usize>(
     let task: Task<N, K> = lt.task::<N, K>()?;
     let task2: Task<N, K> = lt2.task::<N, K>()?;
     let phase1 = read_trajectory_csv::<N>(dir, csv1)?;
-    let phase2 = samples_of::<N>(&crate::artifacts::phase2_dir(dir), csv2)?;
+    let phase2 = crate::retiming::read_samples::<N>(&crate::artifacts::phase2_dir(dir), csv2)?;
     if phase1.last().map(|s| s.q) != phase2.first().map(|s| s.q) {
         return Err(CliError::input(format!(
             "{}: phase 1 does not end where phase 2 starts (files from different runs?)",
@@ -261,7 +239,7 @@ fn data_n<const N: usize, const K: usize>(
     csv: &str,
 ) -> Result<ViewData, CliError> {
     let task: Task<N, K> = lt.task::<N, K>()?;
-    let samples = samples_of::<N>(dir, csv)?;
+    let samples = crate::retiming::read_samples::<N>(dir, csv)?;
     let data = build(lt, &task, &[], &samples, &task, shown)?;
     let last = data.ee.last().copied().unwrap_or([f64::NAN; 3]);
     if &last != end {

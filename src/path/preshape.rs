@@ -191,12 +191,6 @@ impl<const N: usize> Preshape<N> {
         }
     }
 
-    /// The blend fraction `b` of the rate profile (module docs).
-    #[must_use]
-    pub fn blend(&self) -> f64 {
-        self.blend
-    }
-
     /// Integration steps `S₁` (`S₁ + 1` samples; 0 when `q_s = q₀`).
     #[must_use]
     pub fn steps(&self) -> u32 {

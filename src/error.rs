@@ -282,6 +282,9 @@ pub enum Error {
     /// The planner has no task yet ([`crate::Planner::IDLE`] before
     /// [`crate::Planner::reset`]).
     NotInitialized,
+    /// A single-phase task block given to the two-phase search
+    /// ([`crate::block::TaskBlock::load_two_phase_into`]).
+    NotTwoPhase,
     /// A re-timing margin factor above 1 (it must lie in (0, 1]).
     MarginAboveOne,
     /// A re-timing grid of fewer than `min` points ([`crate::retime::MIN_GRID`]).
@@ -435,6 +438,9 @@ impl fmt::Display for Error {
             } => write!(f, "{param} {requested} exceeds the capacity of {capacity}"),
             Error::InertiaWeightsInverted => f.write_str("w_min must not exceed w_max"),
             Error::NotInitialized => f.write_str("the planner has no task yet (call reset)"),
+            Error::NotTwoPhase => {
+                f.write_str("a single-phase task block (no two-phase settings): plan it with the planner")
+            }
             Error::MarginAboveOne => f.write_str("retime margin must lie in (0, 1]"),
             Error::GridTooSmall { min } => {
                 write!(f, "retime grid must have at least {min} points")

@@ -102,4 +102,6 @@ pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{Family, MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
 pub use truth::{TRUTH_SUBSTEPS, TruthModel, TruthState};
-pub use twophase::{TwoPhaseConfig, TwoPhasePlan, TwoPhaseScratch, TwoPhaseStop};
+pub use twophase::{
+    TwoPhaseConfig, TwoPhasePlan, TwoPhaseSearch, TwoPhaseStage, TwoPhaseStatus, TwoPhaseStop,
+};

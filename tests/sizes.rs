@@ -65,16 +65,16 @@ fn documented_retime_sizes() {
 }
 
 /// The two-phase plan's state (docs/twophase.md, "Memory"): the plan, phase 1 and its
-/// demand, and the search's scratch (static in the flight image, on the stack in `plan`).
+/// demand, and the resumable search (static in the flight image, on the stack in `plan`).
 /// Verifies RL-CORE-005.
 #[test]
 fn documented_two_phase_sizes() {
-    use reactionless::{Demand, Preshape, TwoPhasePlan, TwoPhaseScratch};
+    use reactionless::{Demand, Preshape, TwoPhasePlan, TwoPhaseSearch};
     let sizes = [
         ("Preshape<7>", size_of::<Preshape<7>>()),
         ("Demand", size_of::<Demand>()),
         ("TwoPhasePlan<7, 4>", size_of::<TwoPhasePlan<7, 4>>()),
-        ("TwoPhaseScratch<7, 4>", size_of::<TwoPhaseScratch<7, 4>>()),
+        ("TwoPhaseSearch<7, 4>", size_of::<TwoPhaseSearch<7, 4>>()),
     ];
     for (name, size) in sizes {
         println!("{name}: {size} bytes");
@@ -85,7 +85,7 @@ fn documented_two_phase_sizes() {
             ("Preshape<7>", 136),
             ("Demand", 40),
             ("TwoPhasePlan<7, 4>", 640),
-            ("TwoPhaseScratch<7, 4>", 13416),
+            ("TwoPhaseSearch<7, 4>", 20072),
         ]
     );
 }

@@ -162,3 +162,109 @@ fn bad_settings_are_typed_errors() {
         ))
     );
 }
+
+/// The search stepped in slices of any size (1 unit per call, 7, 1,000) gives the bits of
+/// one unlimited call, for a plan that converges, one beyond reach, one refused on the
+/// wheels and one whose budget runs out; each call does at most its budget; the stages
+/// come in order and the rollouts never pass the budget by more than one.
+/// Verifies RL-TWO-006.
+#[test]
+fn any_slicing_gives_the_bits_of_one_call() {
+    use reactionless::twophase::{TwoPhaseSearch, TwoPhaseStage, TwoPhaseStatus};
+    let near = joint_space_task(OFFSETS);
+    let base = paper_task().unwrap();
+    let far: Task<7, 4> = Task::new(
+        base.robot().clone(),
+        *base.start(),
+        Pose {
+            position: [12.0, 0.0, 0.0],
+            quat_wxyz: [1.0, 0.0, 0.0, 0.0],
+        },
+        *base.motion(),
+    )
+    .unwrap();
+    let reference = TwoPhaseConfig::reference();
+    let cases = [
+        (&near, reference, TwoPhaseStop::Converged),
+        (&far, reference, TwoPhaseStop::BeyondReach),
+        (
+            &near,
+            TwoPhaseConfig {
+                max_torque: 1e-4,
+                max_rollouts: 400,
+                ..reference
+            },
+            TwoPhaseStop::PreshapeBounds,
+        ),
+        (
+            &near,
+            TwoPhaseConfig {
+                max_rollouts: 30,
+                ..reference
+            },
+            TwoPhaseStop::Exhausted,
+        ),
+    ];
+    let mut search = Box::new(TwoPhaseSearch::<7, 4>::IDLE);
+    for (task, config, stop) in cases {
+        let whole = plan(task, &config, 1).unwrap();
+        assert_eq!(whole.stop, stop, "{whole:?}");
+        for budget in [1u32, 7, 1000] {
+            search.reset(task, &config, 1).unwrap();
+            let mut stages = vec![search.stage()];
+            let sliced = loop {
+                let before = search.spent();
+                let status = search.step(budget).unwrap();
+                assert!(search.spent() - before <= u64::from(budget));
+                assert!(search.rollouts() <= config.max_rollouts + 1);
+                if stages.last() != Some(&search.stage()) {
+                    stages.push(search.stage());
+                }
+                if let TwoPhaseStatus::Finished(p) = status {
+                    break p;
+                }
+            };
+            assert_eq!(
+                format!("{sliced:?}"),
+                format!("{whole:?}"),
+                "{stop:?}, budget {budget}: the same bits"
+            );
+            let mut order = stages.clone();
+            order.dedup();
+            assert!(
+                order.first() == Some(&TwoPhaseStage::Reach)
+                    && order.last() == Some(&TwoPhaseStage::Done),
+                "{stages:?}"
+            );
+            assert!(
+                order.windows(2).all(|w| w[0] != TwoPhaseStage::Done),
+                "{stages:?}"
+            );
+            // Finished is final and free.
+            let spent = search.spent();
+            let again = search.step(5).unwrap();
+            assert_eq!(
+                format!("{again:?}"),
+                format!("{:?}", TwoPhaseStatus::Finished(sliced)),
+                "{stop:?}"
+            );
+            assert_eq!(search.spent(), spent);
+        }
+    }
+}
+
+/// A search with no task, or whose settings were refused, says so on every call.
+/// Verifies RL-TWO-006.
+#[test]
+fn an_idle_search_is_a_typed_error() {
+    use reactionless::twophase::TwoPhaseSearch;
+    let mut search = Box::new(TwoPhaseSearch::<7, 4>::IDLE);
+    assert_eq!(search.step(10), Err(reactionless::Error::NotInitialized));
+    let task = joint_space_task(OFFSETS);
+    let bad = TwoPhaseConfig {
+        max_rollouts: 0,
+        ..TwoPhaseConfig::reference()
+    };
+    assert!(search.reset(&task, &bad, 1).is_err());
+    assert_eq!(search.step(10), Err(reactionless::Error::NotInitialized));
+}

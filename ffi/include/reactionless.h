@@ -6,6 +6,12 @@
  *   rl_planner_load_block(&planner, block, block_len);
  *   while ((s = rl_planner_step(&planner, budget, &plan)) == RL_RUNNING) { wait for the next frame }
  *
+ * A two-phase block (a task with [preshape]) goes to an rl_two_phase instead:
+ *   static rl_two_phase search;
+ *   RL_TWO_PHASE_INIT(&search);
+ *   rl_two_phase_load_block(&search, block, block_len);
+ *   while ((s = rl_two_phase_step(&search, units, &two)) == RL_RUNNING) { wait for the next frame }
+ *
  * Every function returns an rl_status (negative: an error, named by rl_status_str) unless
  * it says otherwise. Not thread-safe: one caller per planner. */
 
@@ -18,11 +24,13 @@
 #include <stdint.h>
 /* Initialises a planner with this header's ABI version and size (zlib's deflateInit style). */
 #define RL_PLANNER_INIT(p) rl_planner_init((p), RL_ABI_VERSION, sizeof(rl_planner))
+/* Initialises a two-phase search likewise. */
+#define RL_TWO_PHASE_INIT(t) rl_two_phase_init((t), RL_ABI_VERSION, sizeof(rl_two_phase))
 
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 2
+#define RL_ABI_VERSION 3
 
 /*
  Joints of the flight robot (N).
@@ -52,8 +60,15 @@
 #define RL_CHECKPOINT_CAPACITY ((RL_PLANNER_WORDS * 8) + 64)
 
 /*
- A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`, or an error
- (every error is negative). [`rl_status_str`] names each.
+ Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
+ target, with headroom so that a small growth of the core keeps the ABI.
+ */
+#define RL_TWO_PHASE_WORDS 2600
+
+/*
+ A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`,
+ `RL_BEYOND_REACH`, `RL_PRESHAPE_BOUNDS`, or an error (every error is negative).
+ [`rl_status_str`] names each.
  */
 typedef int32_t rl_status;
 
@@ -180,6 +195,103 @@ typedef struct rl_setpoint {
 } rl_setpoint;
 
 /*
+ A two-phase search in caller-owned storage (static app data). Initialise with
+ `rl_two_phase_init`; the members are private to the library.
+ */
+typedef struct rl_two_phase {
+    /*
+     Set by `rl_two_phase_init`.
+     */
+    uint32_t magic;
+    /*
+     1 once a two-phase block is loaded.
+     */
+    uint32_t loaded;
+    /*
+     Digest of the loaded task block (FNV-1a-64).
+     */
+    uint64_t task;
+    /*
+     The search itself.
+     */
+    uint64_t storage[RL_TWO_PHASE_WORDS];
+} rl_two_phase;
+
+/*
+ A finished two-phase plan (filled by `rl_two_phase_step` once it returns
+ `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_BEYOND_REACH` or `RL_PRESHAPE_BOUNDS`): phase 1
+ from the task's start to `q_s` with the base attitude held by the attitude control, then
+ phase 2, the reactionless motion of `eta` from `q_s`.
+ */
+typedef struct rl_two_phase_plan {
+    /*
+     Start of phase 2 (rad), within the joint limits.
+     */
+    double q_s[RL_JOINTS];
+    /*
+     Phase 2's η: `a1, b1, a2, b2, …`.
+     */
+    double eta[RL_ETA_LEN];
+    /*
+     Pose error norm `f` of phase 2's rollout (planner model; NaN when none was rolled
+     out: a target beyond reach).
+     */
+    double f;
+    /*
+     Constraint violation Φ of phase 2 (rad; NaN as `f`).
+     */
+    double phi;
+    /*
+     End-effector position at the end of phase 2 (m, inertial frame; NaN as `f`).
+     */
+    double end_position[3];
+    /*
+     End-effector attitude at the end of phase 2, quaternion `w, x, y, z` (NaN as `f`).
+     */
+    double end_quat_wxyz[4];
+    /*
+     Phase 1's duration (s).
+     */
+    double phase1_duration_s;
+    /*
+     Phase 1's largest wheel momentum (N m s) on its written samples.
+     */
+    double wheel_momentum_nms;
+    /*
+     Phase 1's largest wheel torque (N m) on its written samples.
+     */
+    double wheel_torque_nm;
+    /*
+     How far phase 1 moves the base (m, inertial frame; the CoM stays put).
+     */
+    double base_shift_m[3];
+    /*
+     `f` of the reach check's kinematic inverse (m and rad).
+     */
+    double reach_f;
+    /*
+     Phase 2's largest base rotation on the truth model (rad; NaN unless converged).
+     */
+    double base_disturbance_rad;
+    /*
+     Phase 1's integration steps of the task's `dt`.
+     */
+    uint32_t phase1_steps;
+    /*
+     Rollouts spent.
+     */
+    uint32_t rollouts;
+    /*
+     LM starts begun.
+     */
+    uint32_t starts;
+    /*
+     1 if the plan met its tolerance (`RL_CONVERGED`), else 0.
+     */
+    uint32_t converged;
+} rl_two_phase_plan;
+
+/*
  Success.
  */
 #define RL_OK 0
@@ -210,6 +322,18 @@ typedef struct rl_setpoint {
  floor above the asked tolerance). The plan is the best found.
  */
 #define RL_STALLED 5
+
+/*
+ Two-phase planning is over, not converged: no configuration within the joint limits puts
+ the end effector on the target (decided before any rollout).
+ */
+#define RL_BEYOND_REACH 6
+
+/*
+ Two-phase planning is over, not converged: plans reached the target, but none whose
+ phase 1 the attitude control can serve within the longest phase 1.
+ */
+#define RL_PRESHAPE_BOUNDS 7
 
 /*
  A pointer argument is NULL.
@@ -323,9 +447,16 @@ typedef struct rl_setpoint {
 
 /*
  The block asks for a two-phase plan (magic `RLTASK04` or `RLTASK05`, a task with
- `[preshape]`): this ABI's budgeted planner plans single-phase tasks only.
+ `[preshape]`): `rl_planner` plans single-phase tasks only; load it into an
+ `rl_two_phase`.
  */
 #define RL_E_TWO_PHASE -23
+
+/*
+ The block is single-phase: `rl_two_phase` plans two-phase blocks only; load it into an
+ `rl_planner`.
+ */
+#define RL_E_ONE_PHASE -24
 
 #ifdef __cplusplus
 extern "C" {
@@ -351,7 +482,7 @@ rl_status rl_planner_init(struct rl_planner *p, uint32_t abi_version, size_t pla
 /*
  Loads a task block (the bytes `host-sim block TASK --out FILE` writes), validating it
  as a cFS table: magic, joint count, length and CRC-32, then every value; a two-phase
- block is refused (`RL_E_TWO_PHASE`). On success the planner starts planning from
+ block is refused (`RL_E_TWO_PHASE`: load it into an `rl_two_phase`). On success the planner starts planning from
  scratch; on failure it has no task (`RL_E_NO_TASK` from `rl_planner_step`) and the
  status names the fault.
 
@@ -359,7 +490,9 @@ rl_status rl_planner_init(struct rl_planner *p, uint32_t abi_version, size_t pla
  `p` is NULL or a planner initialised by `rl_planner_init`, not accessed elsewhere during
  the call; `block` is NULL or readable for `len` bytes.
  */
-rl_status rl_planner_load_block(struct rl_planner *p, const uint8_t *block, size_t len);
+rl_status rl_planner_load_block(struct rl_planner *p,
+                                const uint8_t *block,
+                                size_t len);
 
 /*
  Plans for at most `budget` units of work (integration steps; the task block's frame
@@ -442,6 +575,46 @@ rl_status rl_planner_restore(struct rl_planner *p, const uint8_t *buf, size_t le
  Static text naming a status or error (never NULL; unknown codes get a text too).
  */
 const char *rl_status_str(rl_status s);
+
+/*
+ Initialises `t` as an idle two-phase search without a task. `abi_version` and
+ `size` are the caller's `RL_ABI_VERSION` and `sizeof(rl_two_phase)`: a mismatch is
+ `RL_E_ABI_VERSION` or `RL_E_SIZE`, and `t` is left untouched.
+
+ # Safety
+ `t` is NULL or points to writable, aligned storage of `sizeof(rl_two_phase)` bytes that
+ nothing else accesses during the call; it need not be initialised.
+ */
+rl_status rl_two_phase_init(struct rl_two_phase *t, uint32_t abi_version, size_t size);
+
+/*
+ Loads a two-phase task block (`RLTASK04` or `RLTASK05`, the bytes `host-sim block TASK
+ --out FILE` writes for a task with `[preshape]`), validated as `rl_planner_load_block`
+ validates; a single-phase block is `RL_E_ONE_PHASE` (plan it with `rl_planner`). On
+ success the search starts from scratch with the block's seed; on failure it has no task
+ (`RL_E_NO_TASK` from `rl_two_phase_step`) and the status names the fault.
+
+ # Safety
+ `t` is NULL or initialised by `rl_two_phase_init`, not accessed elsewhere during the
+ call; `block` is NULL or readable for `len` bytes.
+ */
+rl_status rl_two_phase_load_block(struct rl_two_phase *t, const uint8_t *block, size_t len);
+
+/*
+ Moves the search on by at most `budget` units (one move of the search each: a forward
+ kinematics of the reach check, a rollout, or the truth-model test of a start that met
+ the goal, the largest). Returns `RL_RUNNING` while there is more to do, then
+ `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_BEYOND_REACH` or `RL_PRESHAPE_BOUNDS` with `*plan`
+ filled (and the same again, without work, on every later call). `plan` is untouched
+ while running. Any slicing gives the same plan bit for bit.
+
+ # Safety
+ `t` is NULL or an initialised search and `plan` NULL or a writable
+ rl_two_phase_plan, neither accessed elsewhere during the call.
+ */
+rl_status rl_two_phase_step(struct rl_two_phase *t,
+                            uint32_t budget,
+                            struct rl_two_phase_plan *plan);
 
 #ifdef __cplusplus
 }  // extern "C"

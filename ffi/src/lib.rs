@@ -6,8 +6,9 @@
 //!
 //! Owns the exported `rl_*` functions, the C types they take ([`rl_planner`],
 //! [`rl_setpoints`], [`rl_plan`], [`rl_setpoint`]), the status codes, and the checkpoint
-//! format ([`checkpoint`], also the Rust API for checkpoint and restore). The header
-//! `ffi/include/reactionless.h` is generated from this file by cbindgen and checked in
+//! format ([`checkpoint`], also the Rust API for checkpoint and restore); the two-phase
+//! search's type and functions are in [`two_phase`] ([`rl_two_phase`]). The header
+//! `ffi/include/reactionless.h` is generated from these files by cbindgen and checked in
 //! (`scripts/check-header.sh`; `BLESS=1` to accept a change).
 //!
 //! The contract, as zlib's `deflateInit_`: the caller passes its header's
@@ -47,6 +48,12 @@
 extern crate std;
 
 pub mod checkpoint;
+pub mod two_phase;
+
+pub use two_phase::{
+    FlightTwoPhase, RL_TWO_PHASE_WORDS, rl_two_phase, rl_two_phase_init, rl_two_phase_load_block,
+    rl_two_phase_plan, rl_two_phase_step,
+};
 
 use core::ffi::c_char;
 use core::mem::{align_of, size_of};
@@ -59,7 +66,7 @@ pub type FlightPlanner = Planner<7, 4, 64>;
 pub type FlightSetpoints = Setpoints<7, 4>;
 
 /// Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
-pub const RL_ABI_VERSION: u32 = 2;
+pub const RL_ABI_VERSION: u32 = 3;
 /// Joints of the flight robot (N).
 pub const RL_JOINTS: usize = 7;
 /// Entries of η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
@@ -73,8 +80,9 @@ pub const RL_SETPOINTS_WORDS: usize = 192;
 /// most this), for sizing a static buffer or a CDS block at compile time.
 pub const RL_CHECKPOINT_CAPACITY: usize = RL_PLANNER_WORDS * 8 + 64;
 
-/// A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`, or an error
-/// (every error is negative). [`rl_status_str`] names each.
+/// A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`,
+/// `RL_BEYOND_REACH`, `RL_PRESHAPE_BOUNDS`, or an error (every error is negative).
+/// [`rl_status_str`] names each.
 pub type rl_status = i32;
 
 /// Success.
@@ -91,6 +99,12 @@ pub const RL_DONE: rl_status = 4;
 /// Planning is over, not converged: the search or its refinement could get no closer (a
 /// floor above the asked tolerance). The plan is the best found.
 pub const RL_STALLED: rl_status = 5;
+/// Two-phase planning is over, not converged: no configuration within the joint limits puts
+/// the end effector on the target (decided before any rollout).
+pub const RL_BEYOND_REACH: rl_status = 6;
+/// Two-phase planning is over, not converged: plans reached the target, but none whose
+/// phase 1 the attitude control can serve within the longest phase 1.
+pub const RL_PRESHAPE_BOUNDS: rl_status = 7;
 
 /// A pointer argument is NULL.
 pub const RL_E_NULL: rl_status = -1;
@@ -137,8 +151,12 @@ pub const RL_E_MISMATCH: rl_status = -21;
 /// Streaming failed (the rollout lost rank or went non-finite).
 pub const RL_E_STREAM: rl_status = -22;
 /// The block asks for a two-phase plan (magic `RLTASK04` or `RLTASK05`, a task with
-/// `[preshape]`): this ABI's budgeted planner plans single-phase tasks only.
+/// `[preshape]`): `rl_planner` plans single-phase tasks only; load it into an
+/// `rl_two_phase`.
 pub const RL_E_TWO_PHASE: rl_status = -23;
+/// The block is single-phase: `rl_two_phase` plans two-phase blocks only; load it into an
+/// `rl_planner`.
+pub const RL_E_ONE_PHASE: rl_status = -24;
 
 const PLANNER_MAGIC: u32 = 0x524c_504e; // "RLPN"
 const SETPOINTS_MAGIC: u32 = 0x524c_5350; // "RLSP"
@@ -503,7 +521,7 @@ pub unsafe extern "C" fn rl_planner_init(
 
 /// Loads a task block (the bytes `host-sim block TASK --out FILE` writes), validating it
 /// as a cFS table: magic, joint count, length and CRC-32, then every value; a two-phase
-/// block is refused (`RL_E_TWO_PHASE`). On success the planner starts planning from
+/// block is refused (`RL_E_TWO_PHASE`: load it into an `rl_two_phase`). On success the planner starts planning from
 /// scratch; on failure it has no task (`RL_E_NO_TASK` from `rl_planner_step`) and the
 /// status names the fault.
 ///
@@ -733,8 +751,15 @@ pub extern "C" fn rl_status_str(s: rl_status) -> *const c_char {
         RL_E_CKPT_TASK => c"RL_E_CKPT_TASK: checkpoint: of another task",
         RL_E_MISMATCH => c"RL_E_MISMATCH: setpoints of another planner's task",
         RL_E_STREAM => c"RL_E_STREAM: streaming failed",
+        RL_BEYOND_REACH => c"RL_BEYOND_REACH: the target lies beyond the arm's reach",
+        RL_PRESHAPE_BOUNDS => {
+            c"RL_PRESHAPE_BOUNDS: no plan whose phase 1 the attitude control can serve in time"
+        }
         RL_E_TWO_PHASE => {
-            c"RL_E_TWO_PHASE: a two-phase block; the budgeted planner plans single-phase tasks only"
+            c"RL_E_TWO_PHASE: a two-phase block; rl_planner plans single-phase tasks (use rl_two_phase)"
+        }
+        RL_E_ONE_PHASE => {
+            c"RL_E_ONE_PHASE: a single-phase block; rl_two_phase plans two-phase tasks (use rl_planner)"
         }
         _ => c"unknown rl_status",
     };

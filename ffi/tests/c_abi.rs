@@ -149,3 +149,65 @@ fn header_compiles_as_cpp11() {
         .arg(&exe));
     run(&mut Command::new(&exe));
 }
+
+/// A C program plans a two-phase block (the joint-space target 20° per joint away) with
+/// `rl_two_phase` in frames of 25 units, through the checked-in header, and gets the bits
+/// the host plans for the same task file: `q_s`, η, `f`, the counts, the inverse's `f`, the
+/// base disturbance and the wheels' demand.
+/// Verifies RL-FFI-011.
+#[test]
+fn c_program_plans_a_two_phase_block() {
+    let dir = out_dir();
+    let task = "tests/tasks/g/chaser7/joint20/task_001.toml";
+    let block = dir.join("two_phase.block");
+    block_of(task, &block);
+    let exe = dir.join("two_phase_test");
+    run(Command::new("gcc")
+        .args([
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Wpedantic",
+            "-Werror",
+        ])
+        .arg("-I")
+        .arg(root().join("ffi/include"))
+        .arg(root().join("ffi/tests/c/two_phase_main.c"))
+        .arg(staticlib())
+        .args(["-lpthread", "-ldl", "-lm", "-o"])
+        .arg(&exe));
+    let text = run(Command::new(&exe).arg(&block));
+    println!("{text}");
+    let got = parse(&text);
+    let lt = taskfile::load(&root().join(task)).unwrap();
+    let host = host_sim::flight::flight_outputs(&lt, &Overrides::default()).unwrap();
+    let field = |k: &str| {
+        host.line
+            .iter()
+            .find(|(key, _)| key == k)
+            .unwrap()
+            .1
+            .clone()
+    };
+    let want = |k: &str, v: String| {
+        assert_eq!(got.get(k), Some(&v), "{k}: C output\n{text}");
+    };
+    want("STATUS", reactionless_ffi::RL_CONVERGED.to_string());
+    want("ROLLOUTS", host.outputs.rollouts.to_string());
+    want("F", host.outputs.f_bits.clone());
+    want("STARTS", field("starts"));
+    want("STEPS1", field("steps1"));
+    want("REACH_F", field("reach_f"));
+    want("BASE", field("base"));
+    want("MOMENTUM", field("momentum"));
+    want("TORQUE", field("torque"));
+    for (i, b) in host.q_s_bits.iter().enumerate() {
+        want(&format!("QS{i}"), b.clone());
+    }
+    for (i, b) in host.outputs.eta_bits.iter().enumerate() {
+        want(&format!("ETA{i}"), b.clone());
+    }
+    let frames: u32 = got["FRAMES"].parse().unwrap();
+    assert!(frames > 10, "{frames} frames");
+}

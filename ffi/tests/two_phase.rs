@@ -1,6 +1,7 @@
-//! A two-phase block (a task with `[preshape]`, magic `RLTASK04`) through the C ABI: the
-//! budgeted planner plans single-phase tasks only, so `rl_planner_load_block` refuses it by
-//! name and the planner is left without a task; it never plans the block as one phase.
+//! A two-phase block (a task with `[preshape]`, magic `RLTASK04`) through the C ABI:
+//! `rl_planner` plans single-phase tasks only, so `rl_planner_load_block` refuses it by
+//! name and the planner is left without a task (it never plans the block as one phase);
+//! `rl_two_phase` plans it, in frames, bit-identically to the host.
 //!
 //! Requirements: RL-FFI (docs/requirements.md).
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
@@ -42,4 +43,160 @@ fn a_two_phase_block_is_refused_by_name() {
         let name = core::ffi::CStr::from_ptr(rl_status_str(RL_E_TWO_PHASE));
         assert!(name.to_str().unwrap().starts_with("RL_E_TWO_PHASE"));
     }
+}
+
+fn field<'a>(line: &'a [(String, String)], key: &str) -> &'a str {
+    &line.iter().find(|(k, _)| k == key).unwrap().1
+}
+
+/// A two-phase block through `rl_two_phase`, stepped in frames of 50 units: the plan the
+/// host plans for the same task file (host-sim's two-phase path, as `host-sim target`
+/// compares with the flight image), bit for bit: `q_s`, η, `f`, how the search ended, its
+/// starts, the inverse's `f`, the base disturbance, phase 1's steps, the wheels' demand and
+/// the base shift. A target beyond reach ends `RL_BEYOND_REACH` before any rollout.
+/// Verifies RL-FFI-011.
+#[test]
+#[allow(unsafe_code)]
+fn a_two_phase_block_is_planned_by_rl_two_phase() {
+    use host_sim::records::bits;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let cases = [
+        ("tests/tasks/g/chaser7/joint20/task_001.toml", RL_CONVERGED),
+        (
+            "tests/tasks/g/chaser7/moved5cm/task_002.toml",
+            RL_BEYOND_REACH,
+        ),
+    ];
+    let mut t = Box::new(rl_two_phase::ZEROED);
+    for (task, want) in cases {
+        let two = block(task);
+        let lt = host_sim::taskfile::load(&root.join(task)).unwrap();
+        let host = host_sim::flight::flight_outputs(&lt, &host_sim::taskfile::Overrides::default())
+            .unwrap();
+        let mut plan = rl_two_phase_plan::ZEROED;
+        let mut frames = 0u32;
+        // SAFETY: `t` is a valid, exclusive rl_two_phase; the block is readable for its length.
+        let status = unsafe {
+            assert_eq!(
+                rl_two_phase_init(
+                    &mut *t,
+                    RL_ABI_VERSION,
+                    core::mem::size_of::<rl_two_phase>()
+                ),
+                RL_OK
+            );
+            assert_eq!(
+                rl_two_phase_load_block(&mut *t, two.as_ptr(), two.len()),
+                RL_OK
+            );
+            loop {
+                frames += 1;
+                let s = rl_two_phase_step(&mut *t, 50, &mut plan);
+                if s != RL_RUNNING {
+                    break s;
+                }
+                assert_eq!(plan, rl_two_phase_plan::ZEROED, "untouched while running");
+            }
+        };
+        assert_eq!(status, want, "{task}");
+        assert!(frames > 1, "{task}: sliced into frames");
+        let line = &host.line;
+        let q_s: Vec<String> = plan.q_s.iter().map(|v| bits(*v)).collect();
+        assert_eq!(q_s, host.q_s_bits, "{task}: q_s");
+        let eta: Vec<String> = plan.eta.iter().map(|v| bits(*v)).collect();
+        assert_eq!(eta, host.outputs.eta_bits, "{task}: eta");
+        assert_eq!(bits(plan.f), host.outputs.f_bits, "{task}: f");
+        assert_eq!(plan.rollouts, host.outputs.rollouts, "{task}: rollouts");
+        assert_eq!(plan.starts.to_string(), field(line, "starts"));
+        assert_eq!(bits(plan.reach_f), field(line, "reach_f"));
+        assert_eq!(bits(plan.base_disturbance_rad), field(line, "base"));
+        assert_eq!(plan.phase1_steps.to_string(), field(line, "steps1"));
+        assert_eq!(bits(plan.wheel_momentum_nms), field(line, "momentum"));
+        assert_eq!(bits(plan.wheel_torque_nm), field(line, "torque"));
+        for (v, k) in plan
+            .base_shift_m
+            .iter()
+            .zip(["shift_x", "shift_y", "shift_z"])
+        {
+            assert_eq!(bits(*v), field(line, k), "{task}: {k}");
+        }
+        assert_eq!(plan.converged, u32::from(want == RL_CONVERGED));
+        // Finished is final: the same plan again, at once.
+        let again = plan;
+        // SAFETY: as above.
+        unsafe {
+            assert_eq!(rl_two_phase_step(&mut *t, 1, &mut plan), want);
+        }
+        assert_eq!(format!("{plan:?}"), format!("{again:?}"));
+    }
+}
+
+/// `rl_two_phase` checks what it is given: NULLs, another ABI version or size, a
+/// single-phase block (named), a corrupt block, stepping with no task; none panics, and a
+/// failed load leaves no task.
+/// Verifies RL-FFI-011.
+#[test]
+#[allow(unsafe_code)]
+fn rl_two_phase_names_what_is_wrong() {
+    let one = block("spec/tasks/paper.toml");
+    let mut two = block("tests/tasks/g/chaser7/joint20/task_001.toml");
+    let size = core::mem::size_of::<rl_two_phase>();
+    let mut t = Box::new(rl_two_phase::ZEROED);
+    let mut plan = rl_two_phase_plan::ZEROED;
+    // SAFETY: `t` is a valid, exclusive rl_two_phase; the blocks are readable for their
+    // length; NULLs are what is being tested.
+    unsafe {
+        assert_eq!(
+            rl_two_phase_init(core::ptr::null_mut(), RL_ABI_VERSION, size),
+            RL_E_NULL
+        );
+        assert_eq!(
+            rl_two_phase_init(&mut *t, RL_ABI_VERSION - 1, size),
+            RL_E_ABI_VERSION
+        );
+        assert_eq!(
+            rl_two_phase_init(&mut *t, RL_ABI_VERSION, size - 8),
+            RL_E_SIZE
+        );
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, two.as_ptr(), two.len()),
+            RL_E_UNINITIALIZED
+        );
+        assert_eq!(
+            rl_two_phase_step(&mut *t, 10, &mut plan),
+            RL_E_UNINITIALIZED
+        );
+        assert_eq!(rl_two_phase_init(&mut *t, RL_ABI_VERSION, size), RL_OK);
+        assert_eq!(rl_two_phase_step(&mut *t, 10, &mut plan), RL_E_NO_TASK);
+        assert_eq!(
+            rl_two_phase_step(&mut *t, 10, core::ptr::null_mut()),
+            RL_E_NULL
+        );
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, core::ptr::null(), 10),
+            RL_E_NULL
+        );
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, one.as_ptr(), one.len()),
+            RL_E_ONE_PHASE
+        );
+        assert_eq!(rl_two_phase_step(&mut *t, 10, &mut plan), RL_E_NO_TASK);
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, two.as_ptr(), two.len()),
+            RL_OK
+        );
+        assert_eq!(rl_two_phase_step(&mut *t, 10, &mut plan), RL_RUNNING);
+        let last = two.len() - 1;
+        two[last] ^= 1;
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, two.as_ptr(), two.len()),
+            RL_E_BLOCK_CRC
+        );
+        assert_eq!(rl_two_phase_step(&mut *t, 10, &mut plan), RL_E_NO_TASK);
+        for s in [RL_BEYOND_REACH, RL_PRESHAPE_BOUNDS, RL_E_ONE_PHASE] {
+            let name = core::ffi::CStr::from_ptr(rl_status_str(s));
+            assert!(!name.to_str().unwrap().starts_with("unknown"), "{s}");
+        }
+    }
+    assert_eq!(plan, rl_two_phase_plan::ZEROED);
 }

@@ -7,8 +7,8 @@
 //! (`RLTASK03`) also has the finished plan re-timed to minimum time and its setpoints
 //! streamed (`reactionless::retime`), in a statically allocated grid of
 //! [`RETIME_GRID_CAPACITY`] points. A two-phase block (`RLTASK04`, `RLTASK05`) is planned
-//! in two phases (spec §15) by `reactionless::twophase::plan`, one call on the planner's
-//! task (not yet sliced into frames), reported as phase 2's plan plus a `TWOPHASE` line
+//! in two phases (spec §15) by the resumable `reactionless::twophase::TwoPhaseSearch` (static),
+//! one unit per frame, reported as phase 2's plan plus a `TWOPHASE` line
 //! (how it ended, phase 1's digest and the wheels' demand) and `QS` lines; `RLTASK05`
 //! re-times phase 2.
 //!
@@ -28,7 +28,7 @@ use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::OutputPin;
 use reactionless::block::{RetimeSettings, decode};
 use reactionless::retime::{self, GridPoint, Limits, Stream};
-use reactionless::twophase::{self, TwoPhaseConfig, TwoPhasePlan, TwoPhaseScratch};
+use reactionless::twophase::{TwoPhaseConfig, TwoPhasePlan, TwoPhaseSearch, TwoPhaseStatus};
 use reactionless::{Error, Plan, Planner, Progress, Rollout, Status, Task, TrajectoryDigest};
 
 /// The flight robot's joint count and null-space dimension.
@@ -90,9 +90,9 @@ fn grid_slot() -> Option<&'static mut [GridPoint<N>; RETIME_GRID_CAPACITY]> {
     Some(unsafe { &mut *core::ptr::addr_of_mut!(GRID) })
 }
 
-/// The statically allocated two-phase search scratch, handed out once.
-fn scratch_slot() -> Option<&'static mut TwoPhaseScratch<N, K>> {
-    static mut SCRATCH: TwoPhaseScratch<N, K> = TwoPhaseScratch::IDLE;
+/// The statically allocated two-phase search, handed out once.
+fn search_slot() -> Option<&'static mut TwoPhaseSearch<N, K>> {
+    static mut SCRATCH: TwoPhaseSearch<N, K> = TwoPhaseSearch::IDLE;
     static TAKEN: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
     if TAKEN.swap(true, core::sync::atomic::Ordering::Relaxed) {
         return None;
@@ -102,6 +102,10 @@ fn scratch_slot() -> Option<&'static mut TwoPhaseScratch<N, K>> {
     #[allow(unsafe_code)]
     Some(unsafe { &mut *core::ptr::addr_of_mut!(SCRATCH) })
 }
+
+/// Units of the two-phase search per frame: the finest slice, so the largest frame is the
+/// search's largest unit (accepting a start: phase 2 on the truth model).
+const TWO_PHASE_UNITS_PER_FRAME: u32 = 1;
 
 /// The integration step timed on its own (inside the plan's rollout).
 const TIMED_STEP: u32 = 1500;
@@ -115,7 +119,7 @@ fn main() -> ! {
         core::mem::size_of::<reactionless::Task<N, K>>(),
         core::mem::size_of::<Rollout<N, K>>(),
         core::mem::size_of::<[GridPoint<N>; RETIME_GRID_CAPACITY]>(),
-        core::mem::size_of::<TwoPhaseScratch<N, K>>()
+        core::mem::size_of::<TwoPhaseSearch<N, K>>()
     );
     #[cfg(feature = "panic-canary")]
     canary();
@@ -175,11 +179,11 @@ fn load(planner: &mut Planner<N, K, P>) -> Result<Loaded, Error> {
     })
 }
 
-/// Plans the planner's task in two phases (one call, timed as one frame, its scratch
-/// static), moves the task's
-/// start to phase 2's `q_s`, reports phase 2 as a plan (`RESULT`, `ETA`, `POSE`, its
-/// rollout and one step timed, as [`measure`]) and the rest (`TWOPHASE`, `QS`); with
-/// `retime`, re-times phase 2.
+/// Plans the planner's task in two phases with the static search, one unit per frame
+/// ([`TWO_PHASE_UNITS_PER_FRAME`]; each frame timed as a call, the LED on while it runs),
+/// moves the task's start to phase 2's `q_s`, reports phase 2 as a plan (`RESULT`, `ETA`,
+/// `POSE`, its rollout and one step timed, as [`measure`]) and the rest (`TWOPHASE`, `QS`);
+/// with `retime`, re-times phase 2.
 #[inline(never)]
 fn plan_two_phase(
     planner: &mut Planner<N, K, P>,
@@ -187,11 +191,24 @@ fn plan_two_phase(
     seed: u64,
     retime: Option<&RetimeSettings<N>>,
 ) -> Result<(), Error> {
-    let scratch = scratch_slot().ok_or(Error::NotInitialized)?;
+    let search = search_slot().ok_or(Error::NotInitialized)?;
     let task = planner.task_mut();
-    rl_mark_call_begin();
-    let p: TwoPhasePlan<N, K> = twophase::plan_in(scratch, task, config, seed)?;
-    rl_mark_call_end();
+    search.reset(task, config, seed)?;
+    let mut busy = Led::new(0);
+    let mut delay = Delay;
+    let mut frames: u32 = 0;
+    let p: TwoPhasePlan<N, K> = loop {
+        let _ = busy.set_high();
+        rl_mark_call_begin();
+        let s = search.step(TWO_PHASE_UNITS_PER_FRAME)?;
+        rl_mark_call_end();
+        let _ = busy.set_low();
+        frames += 1;
+        match s {
+            TwoPhaseStatus::Running => delay.delay_us(1),
+            TwoPhaseStatus::Finished(p) => break p,
+        }
+    };
     let mut phase1 = TrajectoryDigest::new();
     p.preshape.write(&mut phase1);
     task.move_start(&p.q_s)?;
@@ -207,14 +224,15 @@ fn plan_two_phase(
                 rollouts,
                 stagnation: 0,
                 restarts: 0,
-                frames: 1,
+                frames,
             },
         )?,
         None => {
             // Nothing was rolled out (a target beyond reach): no pose, the empty digest.
             defmt::println!(
-                "RESULT converged=false iterations=0 rollouts={=u32} stagnation=0 restarts=0 frames=1 f={=u64:#018x} samples=0 digest={=u64:#018x} reproducible=true",
+                "RESULT converged=false iterations=0 rollouts={=u32} stagnation=0 restarts=0 frames={=u32} f={=u64:#018x} samples=0 digest={=u64:#018x} reproducible=true",
                 rollouts,
+                frames,
                 f64::NAN.to_bits(),
                 TrajectoryDigest::new().value()
             );

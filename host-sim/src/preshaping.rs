@@ -22,7 +22,10 @@ use crate::error::{CliError, Context};
 use crate::goal::{Asked, number, status_name};
 use crate::output::{CsvSink, OutDir, read_trajectory_csv};
 use crate::taskfile::{self, LoadedTask, PreshapeSection};
-use reactionless::twophase::{TwoPhasePlan, TwoPhaseStop, fit_preshape, plan as plan_two_phase};
+use reactionless::twophase::{
+    TwoPhasePlan, TwoPhaseSearch, TwoPhaseStage, TwoPhaseStatus, TwoPhaseStop, fit_preshape,
+    plan as plan_two_phase,
+};
 use reactionless::{Frames, Momentum, PlannerConfig, Sample};
 use serde::Serialize;
 use std::path::Path;
@@ -134,12 +137,14 @@ pub fn two_phase_config(
 }
 
 /// The core's two-phase plan of `lt` with the settings the task and flags ask for: the
-/// task, those settings, the plan and the wall time of planning (s).
+/// task, those settings, the plan and the wall time of planning (s). With `show`, a
+/// spinner on stderr says where the search is (stage, rollouts, starts).
 pub fn solve<const N: usize, const K: usize>(
     lt: &LoadedTask,
     section: &PreshapeSection,
     config: &PlannerConfig,
     asked: &Asked,
+    show: bool,
 ) -> Result<
     (
         reactionless::Task<N, K>,
@@ -152,9 +157,48 @@ pub fn solve<const N: usize, const K: usize>(
     let task = lt.task::<N, K>()?;
     let tp = two_phase_config(lt, section, config, asked);
     let clock = std::time::Instant::now();
-    let p = plan_two_phase(&task, &tp, config.seed)
-        .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
+    let p = if show {
+        search_with_progress(&task, &tp, config.seed)
+    } else {
+        plan_two_phase(&task, &tp, config.seed)
+    }
+    .map_err(|e| lt.err(format!("two-phase plan: {e}")))?;
     Ok((task, tp, p, clock.elapsed().as_secs_f64()))
+}
+
+/// Units per call between progress updates (a few milliseconds of work at most, one
+/// truth-model rollout aside).
+const PROGRESS_UNITS: u32 = 64;
+
+/// The two-phase search stepped in slices, its stage and counts on a spinner; the same
+/// bits as one call (RL-TWO-006).
+fn search_with_progress<const N: usize, const K: usize>(
+    task: &reactionless::Task<N, K>,
+    tp: &reactionless::TwoPhaseConfig,
+    seed: u64,
+) -> Result<TwoPhasePlan<N, K>, reactionless::Error> {
+    let mut search = Box::new(TwoPhaseSearch::<N, K>::IDLE);
+    search.reset(task, tp, seed)?;
+    let spinner = crate::drive::spinner("plan: two phases, reach check");
+    let result = loop {
+        match search.step(PROGRESS_UNITS) {
+            Ok(TwoPhaseStatus::Running) => spinner.set_message(format!(
+                "plan: two phases, {}, {}/{} rollouts, {} starts",
+                match search.stage() {
+                    TwoPhaseStage::Reach => "reach check",
+                    TwoPhaseStage::Screen => "screening starts",
+                    _ => "searching",
+                },
+                search.rollouts(),
+                tp.max_rollouts,
+                search.starts()
+            )),
+            Ok(TwoPhaseStatus::Finished(p)) => break Ok(p),
+            Err(e) => break Err(e),
+        }
+    };
+    spinner.finish_and_clear();
+    result
 }
 
 /// `plan` of a task with `[preshape]`: plans both phases and writes the directory described
@@ -171,7 +215,7 @@ pub fn plan<const N: usize, const K: usize>(
         "plan: two phases ([preshape]): reach check, then up to {} rollouts …",
         config.max_rollouts
     );
-    let (task, tp, p, wall) = solve::<N, K>(lt, section, config, asked)?;
+    let (task, tp, p, wall) = solve::<N, K>(lt, section, config, asked, true)?;
     let tolerance = tp.tolerance;
     let dir = OutDir::create(out)?;
     write_bundle(lt, &dir, None)?;
@@ -326,7 +370,7 @@ pub fn plan_in_memory<const N: usize, const K: usize>(
     config: &PlannerConfig,
     asked: &Asked,
 ) -> Result<(TwoPhasePlan<N, K>, Option<TruthReport>, bool, f64), CliError> {
-    let (task, _, p, wall) = solve::<N, K>(lt, section, config, asked)?;
+    let (task, _, p, wall) = solve::<N, K>(lt, section, config, asked, false)?;
     let truth = match p.outcome {
         Some(_) => {
             let mut task2 = task.clone();

@@ -292,7 +292,8 @@ pub fn two_phase_outputs_of<const N: usize, const K: usize>(
         .preshape
         .ok_or_else(|| CliError::input(format!("{}: no [preshape] section", lt.path.display())))?;
     let (config, asked) = lt.plan_settings(capacity, overrides)?;
-    let (mut task, tp, p, _) = crate::preshaping::solve::<N, K>(lt, &section, &config, &asked)?;
+    let (mut task, tp, p, _) =
+        crate::preshaping::solve::<N, K>(lt, &section, &config, &asked, false)?;
     task.move_start(&p.q_s)
         .map_err(|e| CliError::internal(format!("phase 2's start: {e}")))?;
     let mut digest = TrajectoryDigest::new();

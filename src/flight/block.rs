@@ -45,7 +45,7 @@ use crate::geometry::Pose;
 use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
 use crate::planner::Planner;
 use crate::trajectory::{Family, Motion};
-use crate::twophase::TwoPhaseConfig;
+use crate::twophase::{TwoPhaseConfig, TwoPhaseSearch};
 
 /// The block's magic bytes (`01` had no strategy, budget or refinement target).
 pub const MAGIC: [u8; 8] = *b"RLTASK02";
@@ -194,6 +194,37 @@ impl<const N: usize> TaskBlock<N> {
                 Err(e)
             }
         }
+    }
+}
+
+impl<const N: usize> TaskBlock<N> {
+    /// Gives `search` this block's task and two-phase settings, building the task in place
+    /// (nothing task-sized passes through the stack), and starts it with the planner's
+    /// seed: how flight software loads a two-phase block into a statically allocated
+    /// [`TwoPhaseSearch`].
+    ///
+    /// # Errors
+    /// [`Error::NotTwoPhase`] for a single-phase block; any validation error of the robot,
+    /// motion, task or settings. The search then returns the error on every step.
+    pub fn load_two_phase_into<const K: usize>(
+        &self,
+        search: &mut TwoPhaseSearch<N, K>,
+    ) -> Result<(), Error> {
+        let loaded = match &self.two_phase {
+            None => Err(Error::NotTwoPhase),
+            Some(config) => Motion::new(self.tf_s, self.dt_s, self.n)
+                .and_then(|motion| {
+                    let motion = motion.with_family(self.family);
+                    search
+                        .task_mut()
+                        .init(&self.robot, self.q0, self.target, motion)
+                })
+                .and_then(|()| search.restart(config, self.planner.seed)),
+        };
+        if let Err(e) = loaded {
+            search.fail(e);
+        }
+        loaded
     }
 }
 

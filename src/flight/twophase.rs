@@ -3,8 +3,9 @@
 //! problem as well posed as inverse kinematics; phase 1 ([`crate::preshape`]) brings the
 //! arm from the task's start to `q_s` while the attitude control holds the base.
 //!
-//! Owns [`TwoPhaseConfig`], [`TwoPhasePlan`], [`TwoPhaseStop`], [`TwoPhaseScratch`] and
-//! [`plan`] ([`plan_in`] with the scratch in the caller's static memory).
+//! Owns [`TwoPhaseConfig`], [`TwoPhasePlan`], [`TwoPhaseStop`], the resumable, budgeted
+//! search [`TwoPhaseSearch`] (what it reports: [`TwoPhaseStatus`], [`TwoPhaseStage`]) and
+//! [`plan`] ([`plan_in`] with the search in the caller's static memory).
 //!
 //! **Reach first.** A kinematic inverse (no rollouts: the end pose of a configuration with
 //! the base attitude held and the CoM fixed, which is where a reactionless phase 2 ends)
@@ -43,8 +44,13 @@
 //! ends [`TwoPhaseStop::PreshapeBounds`]. Otherwise after
 //! `max_rollouts` rollouts ([`TwoPhaseStop::Exhausted`], the closest plan reached).
 //!
+//! **Budgeted and resumable.** [`TwoPhaseSearch::step`] does at most `budget` units (one
+//! evaluation each at most: a forward kinematics of the inverse, a rollout, or the test of
+//! a start that met the goal), keeping the search's state between calls; any slicing gives
+//! the bits of one unlimited call ([`plan_in`]).
+//!
 //! Loops are bounded by the rollout budget and constants; nothing allocates. Sizes:
-//! `TwoPhasePlan<7, 4>` and the search's scratch, see `tests/sizes.rs`.
+//! `TwoPhasePlan<7, 4>` and `TwoPhaseSearch<7, 4>`, see `tests/sizes.rs`.
 
 use crate::error::{Error, Param};
 use crate::geometry::Pose;
@@ -115,6 +121,20 @@ pub struct TwoPhaseConfig {
 }
 
 impl TwoPhaseConfig {
+    /// Placeholder settings of an idle search (never validated, never used).
+    const IDLE: Self = Self {
+        qdd_max: 0.0,
+        max_duration: 0.0,
+        max_momentum: 0.0,
+        max_torque: 0.0,
+        standoff_m: 0.0,
+        standoff_rad: 0.0,
+        tolerance: 0.0,
+        max_rollouts: 0,
+        margin: 0.0,
+        max_base_disturbance: 0.0,
+    };
+
     /// The documented defaults: 2 °/s², 60 s, 20 N m s, 1 N m, 0.2 m or 10°, f ≤ 1e-6,
     /// 8,040 rollouts, 0.005 rad.
     #[must_use]
@@ -228,10 +248,8 @@ impl<const N: usize, const K: usize> TwoPhasePlan<N, K> {
 }
 
 /// The search's working memory: phase 2's task, the LM's Jacobian and normal matrix, the
-/// screening pool. Flight software keeps one in static memory ([`plan_in`]) so that
-/// nothing task-sized passes through the stack; [`plan`] keeps one on its own stack.
-/// Size: `TwoPhaseScratch<7, 4>`, see `tests/sizes.rs`.
-pub struct TwoPhaseScratch<const N: usize, const K: usize> {
+/// screening pool (part of [`TwoPhaseSearch`]).
+struct TwoPhaseScratch<const N: usize, const K: usize> {
     phase2: Task<N, K>,
     work: LmWork,
     pool: [(Col, f64); SCREEN],
@@ -239,7 +257,7 @@ pub struct TwoPhaseScratch<const N: usize, const K: usize> {
 
 impl<const N: usize, const K: usize> TwoPhaseScratch<N, K> {
     /// Scratch before any search (placeable in a `static`).
-    pub const IDLE: Self = Self {
+    const IDLE: Self = Self {
         phase2: Task::IDLE,
         work: LmWork::ZERO,
         pool: [([0.0; MAX_Z], f64::INFINITY); SCREEN],
@@ -259,8 +277,8 @@ impl LmWork {
     };
 }
 
-/// Plans `task` in two phases with the planner's stream of `seed`, its scratch on the
-/// stack (about 12 KB for `N = 7`); [`plan_in`] with scratch the caller keeps.
+/// Plans `task` in two phases with the planner's stream of `seed`, the search on the stack
+/// (about 17 KB for `N = 7`); [`plan_in`] with a search the caller keeps.
 ///
 /// # Errors
 /// As [`plan_in`].
@@ -269,104 +287,541 @@ pub fn plan<const N: usize, const K: usize>(
     config: &TwoPhaseConfig,
     seed: u64,
 ) -> Result<TwoPhasePlan<N, K>, Error> {
-    let mut scratch = TwoPhaseScratch::IDLE;
-    plan_in(&mut scratch, task, config, seed)
+    let mut search = TwoPhaseSearch::IDLE;
+    plan_in(&mut search, task, config, seed)
 }
 
-/// Plans `task` in two phases with the planner's stream of `seed`, in `scratch` (any
-/// earlier content is overwritten; the result does not depend on it).
+/// Plans `task` in two phases with the planner's stream of `seed`, in `search` (any
+/// earlier content is overwritten; the result does not depend on it): [`TwoPhaseSearch`]
+/// stepped with an unlimited budget until it finishes.
 ///
 /// # Errors
 /// Bad settings ([`TwoPhaseConfig::validate`]), or a rollout error from the task's own
 /// start (a rank-deficient start).
 pub fn plan_in<const N: usize, const K: usize>(
-    scratch: &mut TwoPhaseScratch<N, K>,
+    search: &mut TwoPhaseSearch<N, K>,
     task: &Task<N, K>,
     config: &TwoPhaseConfig,
     seed: u64,
 ) -> Result<TwoPhasePlan<N, K>, Error> {
-    config.validate()?;
-    let TwoPhaseScratch { phase2, work, pool } = scratch;
-    let mut stream = Stream::new(seed);
-    let q0 = *task.start();
-    let (_, reach_f) = inverse_in(work, task, config.margin, &q0, IK_STARTS, &mut stream);
-    phase2.clone_from(task);
-    let mut best = Best::<N, K>::new(q0);
-    best.reach_f = reach_f;
-    if reach_f > REACH_TOLERANCE {
-        best.stop = TwoPhaseStop::BeyondReach;
-        return Ok(best.finish(task, config));
+    search.reset(task, config, seed)?;
+    // Each call does u32::MAX units and every unit moves the search on; the search ends
+    // within its rollout budget and the inverse's bounded starts.
+    loop {
+        if let TwoPhaseStatus::Finished(p) = search.step(u32::MAX)? {
+            return Ok(p);
+        }
     }
-    let nz = N + 2 * K;
-    let nr = 6 + N + 2;
-    let patience = 4 * nz as u32 + 8;
-    let mut refused = false;
-    let mut refused_starts = 0u32;
-    *pool = [([0.0; MAX_Z], f64::INFINITY); SCREEN];
-    let mut next = STARTS_PER_SCREEN;
-    while best.rollouts < config.max_rollouts {
-        if next >= STARTS_PER_SCREEN {
-            screen(task, config, work, pool, &mut best.rollouts, &mut stream);
-            next = 0;
+}
+
+/// What [`TwoPhaseSearch::step`] reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "returned by value, never stored in bulk"
+)]
+pub enum TwoPhaseStatus<const N: usize, const K: usize> {
+    /// The budget is spent and the search has more to do.
+    Running,
+    /// The search has ended; every later call returns the same plan.
+    Finished(TwoPhasePlan<N, K>),
+}
+
+/// Where a two-phase search is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TwoPhaseStage {
+    /// No task yet ([`TwoPhaseSearch::IDLE`]).
+    Idle,
+    /// The reach check: the kinematic inverse from the task's start and random starts.
+    Reach,
+    /// A screening batch: directions rolled out from the task's start, each with its own
+    /// inverse.
+    Screen,
+    /// An LM start over `[q_s; η]`, or the test of how it ended.
+    Search,
+    /// Finished (or failed).
+    Done,
+}
+
+/// The search's state between units (private: only [`TwoPhaseSearch`] moves it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(clippy::large_enum_variant, reason = "one per search, in place")]
+enum At<const N: usize, const K: usize> {
+    Idle,
+    /// The reach check's inverse is running (`run`, `ask`, `inverse`).
+    Reach,
+    /// The top of the search loop: the budget test, then a screening batch or the pool.
+    Head,
+    /// The screening batch's slot `slot` is to be drawn and rolled out.
+    Screen,
+    /// The inverse of slot `slot`'s rollout end is running.
+    ScreenInverse,
+    /// Take the pool's next start (right after a batch, without the budget test).
+    Pick,
+    /// An LM start is running (`run`, `ask`).
+    Search,
+    /// The start ended without meeting the goal at `point`.
+    Consider,
+    /// The start met the goal at `point`: fit phase 1, fly phase 2 on the truth model.
+    Accept,
+    Done(TwoPhasePlan<N, K>),
+    Failed(Error),
+}
+
+/// The two-phase search (spec §15) as a resumable, budgeted, deterministic state machine:
+/// the loop of [`plan_in`] with its state kept between calls, so a flight scheduler can
+/// give it a fixed slice of every frame.
+///
+/// **A unit** of [`TwoPhaseSearch::step`]'s budget is one move of the search, doing at most
+/// one of:
+/// - one kinematic-inverse evaluation (one forward kinematics) and its LM step (at most a
+///   20 × 20 Cholesky and O(N) for the final pose);
+/// - one rollout on the planner model (a screening direction from the task's start, or
+///   phase 2 of an LM point from its `q_s`, with [`Preshape::estimate`]'s 33 points) and its
+///   LM step;
+/// - accepting a start that met the goal: phase 1 fitted to the wheels' bounds
+///   ([`fit_preshape`]: at most 5 evaluations of its demand on the written samples), then
+///   phase 2 on the truth model (one rollout with 10 sub-steps per step), the largest unit;
+/// - finishing: phase 1 of the reported plan fitted as above.
+///
+/// Stepping with budget 1 per call gives the same bits as one call with an unlimited
+/// budget: the state carried between calls is exactly the loop state, and every random
+/// draw happens at a fixed point of the sequence. The search owns a copy of its task.
+/// Size: `TwoPhaseSearch<7, 4>`, see `tests/sizes.rs`.
+pub struct TwoPhaseSearch<const N: usize, const K: usize> {
+    task: Task<N, K>,
+    config: TwoPhaseConfig,
+    scratch: TwoPhaseScratch<N, K>,
+    stream: Stream,
+    best: Best<N, K>,
+    /// The LM run in progress (the inverse's or a start's) and what it asks for.
+    run: LmRun,
+    ask: Ask,
+    inverse: Inverse<N>,
+    /// The screening slot, its direction and its rollout's end (the inverse's first start).
+    slot: usize,
+    x: Col,
+    /// Where the last start ended (Consider, Accept).
+    point: Col,
+    /// The pool's next start.
+    next: usize,
+    refused: bool,
+    refused_starts: u32,
+    at: At<N, K>,
+    spent: u64,
+}
+
+impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
+    /// A search with no task (placeable in a `static`); [`TwoPhaseSearch::reset`] gives it
+    /// one.
+    pub const IDLE: Self = Self {
+        task: Task::IDLE,
+        config: TwoPhaseConfig::IDLE,
+        scratch: TwoPhaseScratch::IDLE,
+        stream: Stream::IDLE,
+        best: Best::IDLE,
+        run: LmRun::IDLE,
+        ask: Ask::Done(false),
+        inverse: Inverse::IDLE,
+        slot: 0,
+        x: [0.0; MAX_Z],
+        point: [0.0; MAX_Z],
+        next: 0,
+        refused: false,
+        refused_starts: 0,
+        at: At::Idle,
+        spent: 0,
+    };
+
+    /// Starts a search of `task` with `config` and the planner's stream of `seed`, in place
+    /// (nothing task-sized passes through the stack); any earlier search is dropped.
+    ///
+    /// # Errors
+    /// Bad settings ([`TwoPhaseConfig::validate`]); the search is then idle.
+    pub fn reset(
+        &mut self,
+        task: &Task<N, K>,
+        config: &TwoPhaseConfig,
+        seed: u64,
+    ) -> Result<(), Error> {
+        self.at = At::Idle;
+        config.validate()?;
+        self.task.clone_from(task);
+        self.restart(config, seed)
+    }
+
+    /// Starts a search of the task it holds ([`TwoPhaseSearch::task_mut`], where flight
+    /// software builds it in place), as [`TwoPhaseSearch::reset`].
+    ///
+    /// # Errors
+    /// Bad settings ([`TwoPhaseConfig::validate`]); the search is then idle.
+    pub fn restart(&mut self, config: &TwoPhaseConfig, seed: u64) -> Result<(), Error> {
+        self.at = At::Idle;
+        config.validate()?;
+        self.config = *config;
+        self.stream = Stream::new(seed);
+        self.spent = 0;
+        let q0 = *self.task.start();
+        self.best = Best::new(q0);
+        self.inverse = Inverse::new(&self.task, &q0, IK_STARTS);
+        (self.run, self.ask) = self
+            .inverse
+            .begin(&self.task, config.margin, &mut self.stream);
+        self.at = At::Reach;
+        Ok(())
+    }
+
+    /// The task, to build in place before [`TwoPhaseSearch::restart`]; the search is idle
+    /// until then.
+    pub fn task_mut(&mut self) -> &mut Task<N, K> {
+        self.at = At::Idle;
+        &mut self.task
+    }
+
+    /// Makes the search idle with `e`: every later step returns it (a task that failed to
+    /// load).
+    pub fn fail(&mut self, e: Error) {
+        self.at = At::Failed(e);
+    }
+
+    /// Moves the search on by at most `budget` units (see [`TwoPhaseSearch`]); `Finished`
+    /// with the plan once it has ended (then at once, whatever the budget).
+    ///
+    /// # Errors
+    /// [`Error::NotInitialized`] before [`TwoPhaseSearch::reset`]; a rollout error from the
+    /// task's own start (a rank-deficient start), returned again by every later call.
+    pub fn step(&mut self, budget: u32) -> Result<TwoPhaseStatus<N, K>, Error> {
+        for _ in 0..budget {
+            match self.at {
+                At::Done(p) => return Ok(TwoPhaseStatus::Finished(p)),
+                At::Failed(e) => return Err(e),
+                At::Idle => return Err(Error::NotInitialized),
+                _ => {}
+            }
+            self.spent += 1;
+            if let Err(e) = self.unit() {
+                self.at = At::Failed(e);
+            }
         }
-        let Some((z, gap)) = pool.get(next).copied() else {
-            break;
+        match self.at {
+            At::Done(p) => Ok(TwoPhaseStatus::Finished(p)),
+            At::Failed(e) => Err(e),
+            At::Idle => Err(Error::NotInitialized),
+            _ => Ok(TwoPhaseStatus::Running),
+        }
+    }
+
+    /// Where the search is.
+    #[must_use]
+    pub fn stage(&self) -> TwoPhaseStage {
+        match self.at {
+            At::Idle => TwoPhaseStage::Idle,
+            At::Reach => TwoPhaseStage::Reach,
+            At::Screen | At::ScreenInverse => TwoPhaseStage::Screen,
+            At::Head | At::Pick | At::Search | At::Consider | At::Accept => TwoPhaseStage::Search,
+            At::Done(_) | At::Failed(_) => TwoPhaseStage::Done,
+        }
+    }
+
+    /// Rollouts spent so far (of [`TwoPhaseConfig::max_rollouts`]).
+    #[must_use]
+    pub fn rollouts(&self) -> u32 {
+        self.best.rollouts
+    }
+
+    /// LM starts begun so far.
+    #[must_use]
+    pub fn starts(&self) -> u32 {
+        self.best.starts
+    }
+
+    /// Units spent since [`TwoPhaseSearch::reset`].
+    #[must_use]
+    pub fn spent(&self) -> u64 {
+        self.spent
+    }
+
+    /// The task being planned.
+    #[must_use]
+    pub fn task(&self) -> &Task<N, K> {
+        &self.task
+    }
+
+    /// One unit. Each state's work is a function of its own, so that the stack holds only
+    /// the deepest one's frame (the truth-model rollout of [`At::Accept`]).
+    fn unit(&mut self) -> Result<(), Error> {
+        match self.at {
+            At::Reach | At::ScreenInverse => self.inverse_unit(),
+            At::Head => self.head_unit(),
+            At::Screen => self.screen_unit(),
+            At::Pick => self.pick_unit(),
+            At::Search => self.search_unit(),
+            At::Consider => self.consider_unit(),
+            At::Accept => return self.accept_unit(),
+            At::Idle | At::Done(_) | At::Failed(_) => {}
+        }
+        Ok(())
+    }
+
+    /// An evaluation of the running inverse, or the end of one of its starts; when the
+    /// inverse is over, the reach check's verdict or the screening slot's start.
+    #[inline(never)]
+    fn inverse_unit(&mut self) {
+        let Self {
+            task,
+            config: c,
+            scratch,
+            stream,
+            best,
+            run,
+            ask,
+            inverse,
+            slot,
+            x,
+            next,
+            refused,
+            refused_starts,
+            at,
+            ..
+        } = self;
+        let TwoPhaseScratch { phase2, work, pool } = scratch;
+        match ask {
+            Ask::Eval => {
+                *ask = run.tell(work, ik_eval(task, c.margin, run.point()), 0);
+                return;
+            }
+            Ask::Done(_) => {
+                if inverse.end_start(task, run.point()) {
+                    (*run, *ask) = inverse.begin(task, c.margin, stream);
+                    return;
+                }
+            }
+        }
+        let (q_ik, f) = inverse.best;
+        if matches!(*at, At::Reach) {
+            phase2.clone_from(task);
+            best.reach_f = f;
+            if f > REACH_TOLERANCE {
+                best.stop = TwoPhaseStop::BeyondReach;
+                *at = At::Done(best.finish(task, c));
+                return;
+            }
+            *refused = false;
+            *refused_starts = 0;
+            for p in pool.iter_mut() {
+                *p = ([0.0; MAX_Z], f64::INFINITY);
+            }
+            *next = STARTS_PER_SCREEN;
+            *at = At::Head;
+        } else {
+            if let Some(s) = pool.get_mut(*slot) {
+                *s = screened(task, c, x, &inverse.first, &q_ik, f);
+            }
+            *slot += 1;
+            *at = At::Screen;
+        }
+    }
+
+    /// The top of the search loop: the budget test, then a screening batch or the pool.
+    #[inline(never)]
+    fn head_unit(&mut self) {
+        if self.best.rollouts >= self.config.max_rollouts {
+            self.at = At::Done(end_search(
+                &mut self.best,
+                self.refused,
+                &self.task,
+                &self.config,
+            ));
+        } else if self.next >= STARTS_PER_SCREEN {
+            self.slot = 0;
+            self.at = At::Screen;
+        } else {
+            self.at = At::Pick;
+        }
+    }
+
+    /// The screening slot's direction and its rollout from the task's start (one rollout),
+    /// then its inverse; or, after the last slot, the batch sorted.
+    #[inline(never)]
+    fn screen_unit(&mut self) {
+        let Self {
+            task,
+            config: c,
+            scratch,
+            stream,
+            best,
+            run,
+            ask,
+            inverse,
+            slot,
+            x,
+            next,
+            at,
+            ..
+        } = self;
+        let pool = &mut scratch.pool;
+        if *slot >= SCREEN {
+            sort_pool(pool);
+            *next = 0;
+            *at = At::Pick;
+            return;
+        }
+        // A direction: 2K uniforms 2u − 1, normalised.
+        *x = [0.0; MAX_Z];
+        for v in x.iter_mut().take(2 * K) {
+            *v = 2.0 * stream.uniform() - 1.0;
+        }
+        normalise(x, 2 * K);
+        if let Some(s) = pool.get_mut(*slot) {
+            *s = ([0.0; MAX_Z], f64::INFINITY);
+        }
+        let rolled = if best.rollouts < c.max_rollouts {
+            best.rollouts += 1;
+            task.rollout(&to_eta::<K>(x, 0), &mut ()).ok()
+        } else {
+            None
         };
-        next += 1;
+        if let Some(o) = rolled {
+            *inverse = Inverse::new(task, &o.q_final, 1);
+            (*run, *ask) = inverse.begin(task, c.margin, stream);
+            *at = At::ScreenInverse;
+        } else {
+            *slot += 1;
+        }
+    }
+
+    /// The pool's next start: an LM run over `[q_s; η]` from it.
+    #[inline(never)]
+    fn pick_unit(&mut self) {
+        let Some((z, gap)) = self.scratch.pool.get(self.next).copied() else {
+            self.at = At::Done(end_search(
+                &mut self.best,
+                self.refused,
+                &self.task,
+                &self.config,
+            ));
+            return;
+        };
+        self.next += 1;
         if !gap.is_finite() {
-            next = STARTS_PER_SCREEN;
-            continue;
+            self.next = STARTS_PER_SCREEN;
+            self.at = At::Head;
+            return;
         }
-        best.starts += 1;
-        let mut eval = |z: &Col, count: &mut u32| -> Option<(Res, bool)> {
-            *count += 1;
-            evaluate(task, phase2, config, z)
-        };
-        let mut lm = Lm {
+        self.best.starts += 1;
+        let nz = N + 2 * K;
+        let lm = Lm {
             nz,
-            nr,
+            nr: 6 + N + 2,
             // η is a direction in the paper's family; with a free amplitude its scale is
             // the amplitude and stays as the search leaves it.
-            sphere_from: if task.motion().family().free_amplitude() {
+            sphere_from: if self.task.motion().family().free_amplitude() {
                 MAX_Z
             } else {
                 N
             },
             fd_step: 1e-7,
-            patience,
+            patience: 4 * nz as u32 + 8,
             broyden: true,
         };
-        let budget = config.max_rollouts;
-        let (found, zf) = lm.run(work, &z, &mut eval, &mut best.rollouts, budget);
-        let Some(found) = found else {
-            if best.consider(task, phase2, config, &zf) {
-                refused_starts += 1;
-                refused = true;
-                if refused_starts >= REFUSED_STARTS {
-                    break;
-                }
+        (self.run, self.ask) = LmRun::begin(lm, &z, self.config.max_rollouts);
+        self.at = At::Search;
+    }
+
+    /// One evaluation of the running start (one rollout), or how it ended.
+    #[inline(never)]
+    fn search_unit(&mut self) {
+        let Self {
+            task,
+            config: c,
+            scratch,
+            best,
+            run,
+            ask,
+            point,
+            at,
+            ..
+        } = self;
+        let TwoPhaseScratch { phase2, work, .. } = scratch;
+        match ask {
+            Ask::Eval => {
+                best.rollouts += 1;
+                let reply = evaluate(task, phase2, c, run.point());
+                *ask = run.tell(work, reply, best.rollouts);
             }
-            continue;
-        };
-        // Phase 1 within the wheels' bounds, or the next start.
-        match best.accept(task, phase2, config, &found) {
-            Ok(true) => return Ok(best.finish(task, config)),
-            Ok(false) => {
-                refused = true;
-                refused_starts += 1;
-                if refused_starts >= REFUSED_STARTS {
-                    break;
-                }
+            Ask::Done(met) => {
+                *point = *run.point();
+                *at = if *met { At::Accept } else { At::Consider };
             }
-            Err(e) => return Err(e),
         }
     }
+
+    /// A start that did not meet the goal: kept if closest (one rollout); counted if it
+    /// ended on phase 1's bounds.
+    #[inline(never)]
+    fn consider_unit(&mut self) {
+        self.at = At::Head;
+        let phase2 = &mut self.scratch.phase2;
+        if self
+            .best
+            .consider(&self.task, phase2, &self.config, &self.point)
+        {
+            self.refused_starts += 1;
+            self.refused = true;
+            if self.refused_starts >= REFUSED_STARTS {
+                self.at = At::Done(end_search(
+                    &mut self.best,
+                    self.refused,
+                    &self.task,
+                    &self.config,
+                ));
+            }
+        }
+    }
+
+    /// A start that met the goal: phase 1 within the wheels' bounds and phase 2 on the
+    /// truth model, or the next start.
+    #[inline(never)]
+    fn accept_unit(&mut self) -> Result<(), Error> {
+        let phase2 = &mut self.scratch.phase2;
+        if self
+            .best
+            .accept(&self.task, phase2, &self.config, &self.point)?
+        {
+            self.at = At::Done(self.best.finish(&self.task, &self.config));
+        } else {
+            self.refused = true;
+            self.refused_starts += 1;
+            self.at = if self.refused_starts >= REFUSED_STARTS {
+                At::Done(end_search(
+                    &mut self.best,
+                    self.refused,
+                    &self.task,
+                    &self.config,
+                ))
+            } else {
+                At::Head
+            };
+        }
+        Ok(())
+    }
+}
+
+/// How the search ends when it gives up: on phase 1's bounds if any start ended there.
+fn end_search<const N: usize, const K: usize>(
+    best: &mut Best<N, K>,
+    refused: bool,
+    task: &Task<N, K>,
+    c: &TwoPhaseConfig,
+) -> TwoPhasePlan<N, K> {
     best.stop = if refused {
         TwoPhaseStop::PreshapeBounds
     } else {
         TwoPhaseStop::Exhausted
     };
-    Ok(best.finish(task, config))
+    best.finish(task, c)
 }
 
 /// The best plan so far.
@@ -384,7 +839,9 @@ struct Best<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Best<N, K> {
-    fn new(q0: [f64; N]) -> Self {
+    const IDLE: Self = Self::new([0.0; N]);
+
+    const fn new(q0: [f64; N]) -> Self {
         Self {
             z: [0.0; MAX_Z],
             f: f64::INFINITY,
@@ -462,7 +919,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
         Ok(false)
     }
 
-    fn finish(self, task: &Task<N, K>, c: &TwoPhaseConfig) -> TwoPhasePlan<N, K> {
+    fn finish(&self, task: &Task<N, K>, c: &TwoPhaseConfig) -> TwoPhasePlan<N, K> {
         let robot = task.robot();
         // The start phase 2 was rolled out from: z's q_s clamped into the limits.
         let qs = clamped(
@@ -496,69 +953,6 @@ impl<const N: usize, const K: usize> Best<N, K> {
             reach_f: self.reach_f,
             base_disturbance: self.base_disturbance,
             stop: self.stop,
-        }
-    }
-}
-
-/// A screening batch: [`SCREEN`] directions, each rolled out from `q₀` (one rollout each);
-/// its start `q_s = q₀ + (q_ik − q_S)` with `q_ik` the kinematic inverse nearest the end
-/// `q_S` of that rollout, so phase 2 from `q_s` ends near `q_ik`; sorted by the pre-shape's
-/// largest joint move `max |q_ik − q_S|` (infinite when the inverse fails).
-fn screen<const N: usize, const K: usize>(
-    task: &Task<N, K>,
-    config: &TwoPhaseConfig,
-    work: &mut LmWork,
-    pool: &mut [(Col, f64); SCREEN],
-    rollouts: &mut u32,
-    stream: &mut Stream,
-) {
-    let robot = task.robot();
-    let (lo, hi) = (*robot.lower(), *robot.upper());
-    let q0 = *task.start();
-    for slot in pool.iter_mut() {
-        let mut x = [0.0; MAX_Z];
-        for v in x.iter_mut().take(2 * K) {
-            *v = 2.0 * stream.uniform() - 1.0;
-        }
-        normalise(&mut x, 2 * K);
-        *slot = ([0.0; MAX_Z], f64::INFINITY);
-        if *rollouts >= config.max_rollouts {
-            continue;
-        }
-        *rollouts += 1;
-        let Ok(o) = task.rollout(&to_eta::<K>(&x, 0), &mut ()) else {
-            continue;
-        };
-        let (q_ik, f) = inverse_in(work, task, config.margin, &o.q_final, 1, stream);
-        if f > REACH_TOLERANCE {
-            continue;
-        }
-        let mut z = [0.0; MAX_Z];
-        let mut gap = 0.0f64;
-        for (j, zj) in z.iter_mut().enumerate().take(N) {
-            let (l, h) = (at(&lo, j) + config.margin, at(&hi, j) - config.margin);
-            let d = at(&q_ik, j) - at(&o.q_final, j);
-            gap = gap.max(libm::fabs(d));
-            *zj = (at(&q0, j) + d).max(l).min(h);
-        }
-        for (zj, xj) in z.iter_mut().skip(N).zip(x.iter()).take(2 * K) {
-            *zj = *xj;
-        }
-        *slot = (z, gap);
-    }
-    // Insertion sort by gap (stable, bounded by SCREEN²).
-    for i in 1..SCREEN {
-        let mut j = i;
-        while j > 0 {
-            let (Some(a), Some(b)) = (pool.get(j - 1), pool.get(j)) else {
-                break;
-            };
-            if b.1 < a.1 {
-                pool.swap(j - 1, j);
-                j -= 1;
-            } else {
-                break;
-            }
         }
     }
 }
@@ -706,6 +1100,58 @@ fn standoff_shortfall(start: &Pose, target: &Pose, c: &TwoPhaseConfig) -> f64 {
     }
 }
 
+/// A screening slot's start: `q_s = q₀ + (q_ik − q_S)` (clamped inside the limits by the
+/// margin) with direction `x`, where `q_S` ends `x`'s rollout from `q₀` and `q_ik` is the
+/// kinematic inverse nearest it (`f` its error), so phase 2 from `q_s` ends near `q_ik`;
+/// and the pre-shape's largest joint move `max |q_ik − q_S|` (infinite when the inverse
+/// failed).
+fn screened<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    config: &TwoPhaseConfig,
+    x: &Col,
+    q_end: &[f64; N],
+    q_ik: &[f64; N],
+    f: f64,
+) -> (Col, f64) {
+    if f > REACH_TOLERANCE {
+        return ([0.0; MAX_Z], f64::INFINITY);
+    }
+    let robot = task.robot();
+    let (lo, hi) = (robot.lower(), robot.upper());
+    let q0 = task.start();
+    let mut z = [0.0; MAX_Z];
+    let mut gap = 0.0f64;
+    for (j, zj) in z.iter_mut().enumerate().take(N) {
+        let (l, h) = (at(lo, j) + config.margin, at(hi, j) - config.margin);
+        let d = at(q_ik, j) - at(q_end, j);
+        gap = gap.max(libm::fabs(d));
+        *zj = (at(q0, j) + d).max(l).min(h);
+    }
+    for (zj, xj) in z.iter_mut().skip(N).zip(x.iter()).take(2 * K) {
+        *zj = *xj;
+    }
+    (z, gap)
+}
+
+/// Sorts a screening batch by the pre-shape's largest joint move (insertion sort: stable,
+/// bounded by [`SCREEN`]²).
+fn sort_pool(pool: &mut [(Col, f64); SCREEN]) {
+    for i in 1..SCREEN {
+        let mut j = i;
+        while j > 0 {
+            let (Some(a), Some(b)) = (pool.get(j - 1), pool.get(j)) else {
+                break;
+            };
+            if b.1 < a.1 {
+                pool.swap(j - 1, j);
+                j -= 1;
+            } else {
+                break;
+            }
+        }
+    }
+}
+
 /// The kinematic inverse: a configuration within the limits (by the margin) whose end pose,
 /// base attitude held and CoM fixed, is the target; and its `f`. No rollouts.
 /// The first attempt starts at `first`, up to `starts − 1` more at random configurations.
@@ -716,51 +1162,78 @@ pub fn inverse<const N: usize, const K: usize>(
     starts: u32,
     stream: &mut Stream,
 ) -> ([f64; N], f64) {
+    if starts == 0 {
+        return (*task.start(), f64::INFINITY);
+    }
     let mut work = LmWork::ZERO;
-    inverse_in(&mut work, task, margin, first, starts, stream)
+    let mut inverse = Inverse::new(task, first, starts);
+    let (mut run, mut ask) = inverse.begin(task, margin, stream);
+    // Every start ends (its LM's damping grows past LAMBDA_MAX unless it keeps improving),
+    // and the starts are at most IK_STARTS.
+    loop {
+        match ask {
+            Ask::Eval => ask = run.tell(&mut work, ik_eval(task, margin, run.point()), 0),
+            Ask::Done(_) => {
+                if !inverse.end_start(task, run.point()) {
+                    return inverse.best;
+                }
+                (run, ask) = inverse.begin(task, margin, stream);
+            }
+        }
+    }
 }
 
-/// [`inverse`] with the LM's matrices in `work`.
-fn inverse_in<const N: usize, const K: usize>(
-    work: &mut LmWork,
-    task: &Task<N, K>,
-    margin: f64,
-    first: &[f64; N],
+/// A kinematic inverse in progress: its starts, each an LM run over `q` alone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Inverse<const N: usize> {
+    /// The current start, of `starts` (at least 1).
+    s: u32,
     starts: u32,
-    stream: &mut Stream,
-) -> ([f64; N], f64) {
-    let robot = task.robot();
-    let com0 = task.com0();
-    let target = *task.target();
-    let (lo, hi) = (*robot.lower(), *robot.upper());
-    let mut eval = |z: &Col, _: &mut u32| -> Option<(Res, bool)> {
-        let q = q_of::<N>(z);
-        let pose = Frames::new(robot, &q).end_pose(&com0, IDENTITY_WXYZ);
-        let e = pose.error_to(&target).to_array();
-        let mut r = [0.0; MAX_R];
-        for (v, e) in r.iter_mut().zip(e.iter()) {
-            *v = *e;
-        }
-        for (j, v) in r.iter_mut().skip(6).enumerate().take(N) {
-            let (l, h, qj) = (at(&lo, j), at(&hi, j), at(&q, j));
-            *v = (qj - (h - margin)).max(0.0) + ((l + margin) - qj).max(0.0);
-        }
-        let f = libm::sqrt(e.iter().fold(0.0, |s, v| s + v * v));
-        let inside = r.iter().skip(6).all(|v| *v == 0.0);
-        Some((r, f <= 1e-12 && inside))
+    /// The first start.
+    first: [f64; N],
+    /// The best configuration so far and its `f`.
+    best: ([f64; N], f64),
+}
+
+impl<const N: usize> Inverse<N> {
+    const IDLE: Self = Self {
+        s: 0,
+        starts: 1,
+        first: [0.0; N],
+        best: ([0.0; N], f64::INFINITY),
     };
-    let mut best = (*task.start(), f64::INFINITY);
-    for s in 0..starts.min(IK_STARTS) {
+
+    /// An inverse from `first`, then up to `starts − 1` random starts (at least one start,
+    /// at most [`IK_STARTS`]).
+    fn new<const K: usize>(task: &Task<N, K>, first: &[f64; N], starts: u32) -> Self {
+        Self {
+            s: 0,
+            starts: starts.clamp(1, IK_STARTS),
+            first: *first,
+            best: (*task.start(), f64::INFINITY),
+        }
+    }
+
+    /// The LM run of the current start: `first`, or a uniform configuration within the
+    /// limits by the margin (N draws of `stream`).
+    fn begin<const K: usize>(
+        &self,
+        task: &Task<N, K>,
+        margin: f64,
+        stream: &mut Stream,
+    ) -> (LmRun, Ask) {
+        let robot = task.robot();
+        let (lo, hi) = (robot.lower(), robot.upper());
         let mut z = [0.0; MAX_Z];
         for (j, zj) in z.iter_mut().enumerate().take(N) {
-            *zj = if s == 0 {
-                at(first, j)
+            *zj = if self.s == 0 {
+                at(&self.first, j)
             } else {
-                let (l, h) = (at(&lo, j) + margin, at(&hi, j) - margin);
+                let (l, h) = (at(lo, j) + margin, at(hi, j) - margin);
                 l + (h - l) * stream.uniform()
             };
         }
-        let mut lm = Lm {
+        let lm = Lm {
             nz: N,
             nr: 6 + N,
             sphere_from: MAX_Z,
@@ -768,32 +1241,64 @@ fn inverse_in<const N: usize, const K: usize>(
             patience: IK_ITERATIONS,
             broyden: false,
         };
-        let mut count = 0;
-        let budget = IK_ITERATIONS * (N as u32 + 2);
-        let (found, zf) = lm.run(work, &z, &mut eval, &mut count, budget);
-        let zf = found.unwrap_or(zf);
-        let q = q_of::<N>(&zf);
-        let pose = Frames::new(robot, &q).end_pose(&com0, IDENTITY_WXYZ);
+        LmRun::begin(lm, &z, IK_ITERATIONS * (N as u32 + 2))
+    }
+
+    /// The current start ended at `z`: keeps it if it is the best; whether another start
+    /// follows (not after an exact solution, nor after the last start).
+    fn end_start<const K: usize>(&mut self, task: &Task<N, K>, z: &Col) -> bool {
+        let robot = task.robot();
+        let (lo, hi) = (robot.lower(), robot.upper());
+        let q = q_of::<N>(z);
+        let pose = Frames::new(robot, &q).end_pose(&task.com0(), IDENTITY_WXYZ);
         let inside = q
             .iter()
             .zip(lo.iter().zip(hi.iter()))
             .all(|(q, (l, h))| *q >= *l && *q <= *h);
         let f = if inside {
-            pose.error_to(&target).norm()
+            pose.error_to(task.target()).norm()
         } else {
             f64::INFINITY
         };
-        if f < best.1 {
-            best = (q, f);
+        if f < self.best.1 {
+            self.best = (q, f);
         }
-        if best.1 <= 1e-12 {
-            break;
+        if self.best.1 <= 1e-12 {
+            return false;
         }
+        self.s += 1;
+        self.s < self.starts
     }
-    best
 }
 
-/// A Levenberg–Marquardt run (minimum-norm steps, Broyden or full differences).
+/// The kinematic inverse's residual at `z` (its first N components a configuration): the
+/// end pose's error (base attitude held, CoM fixed) and the joint-limit excess beyond the
+/// margin; and whether it is exact (`f ≤ 1e-12`) within the limits. One forward kinematics.
+fn ik_eval<const N: usize, const K: usize>(
+    task: &Task<N, K>,
+    margin: f64,
+    z: &Col,
+) -> Option<(Res, bool)> {
+    let robot = task.robot();
+    let (lo, hi) = (robot.lower(), robot.upper());
+    let q = q_of::<N>(z);
+    let pose = Frames::new(robot, &q).end_pose(&task.com0(), IDENTITY_WXYZ);
+    let e = pose.error_to(task.target()).to_array();
+    let mut r = [0.0; MAX_R];
+    for (v, e) in r.iter_mut().zip(e.iter()) {
+        *v = *e;
+    }
+    for (j, v) in r.iter_mut().skip(6).enumerate().take(N) {
+        let (l, h, qj) = (at(lo, j), at(hi, j), at(&q, j));
+        *v = (qj - (h - margin)).max(0.0) + ((l + margin) - qj).max(0.0);
+    }
+    let f = libm::sqrt(e.iter().fold(0.0, |s, v| s + v * v));
+    let inside = r.iter().skip(6).all(|v| *v == 0.0);
+    Some((r, f <= 1e-12 && inside))
+}
+
+/// A Levenberg–Marquardt run's settings (minimum-norm steps, Broyden or full differences).
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Lm {
     nz: usize,
     nr: usize,
@@ -805,143 +1310,276 @@ struct Lm {
     broyden: bool,
 }
 
-impl Lm {
-    /// Runs from `z0` until an evaluation meets the goal (`Some(z)`), the run stalls or
-    /// `count` reaches `budget` (`None`, with the best `z`). `eval` counts into `count`.
-    fn run<F: FnMut(&Col, &mut u32) -> Option<(Res, bool)>>(
-        &mut self,
-        work: &mut LmWork,
-        z0: &Col,
-        eval: &mut F,
-        count: &mut u32,
-        budget: u32,
-    ) -> (Option<Col>, Col) {
-        let mut z = *z0;
-        let Some((mut r, met)) = eval(&z, count) else {
-            return (None, z);
-        };
-        if met {
-            return (Some(z), z);
+/// What a running LM asks for next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Ask {
+    /// Evaluate [`LmRun::point`] and tell the run ([`LmRun::tell`]).
+    Eval,
+    /// The run is over: whether it met the goal, at [`LmRun::point`] (if not, the last
+    /// accepted point).
+    Done(bool),
+}
+
+/// Which evaluation a run waits for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(clippy::large_enum_variant, reason = "one per search, in place")]
+enum Wait {
+    /// The start point's.
+    First,
+    /// Column `c` of the forward-difference Jacobian, at this point.
+    Column(usize, Col),
+    /// A trial step: the point, the step and its predicted decrease of `‖r‖²`.
+    Trial(Col, Col, f64),
+    /// None: the run is over.
+    Over,
+}
+
+/// A Levenberg–Marquardt run as a state machine, one evaluation per [`LmRun::tell`]: from
+/// `z0` until an evaluation meets the goal, the run stalls (`‖r‖` has not halved within
+/// `patience` counted evaluations, or the damping passes [`LAMBDA_MAX`]) or the count
+/// reaches `budget`. Steps solve `(J Jᵀ + μ I) y = −r`, `δ = Jᵀ y`; `λ` as the
+/// multistart's (Nielsen). The caller counts the evaluations it wants counted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LmRun {
+    lm: Lm,
+    budget: u32,
+    z: Col,
+    r: Res,
+    merit: f64,
+    fresh: bool,
+    lambda: f64,
+    nu: f64,
+    rejects: u32,
+    ref_merit: f64,
+    ref_count: u32,
+    wait: Wait,
+}
+
+impl LmRun {
+    const IDLE: Self = Self {
+        lm: Lm {
+            nz: 0,
+            nr: 0,
+            sphere_from: MAX_Z,
+            fd_step: 1e-7,
+            patience: 0,
+            broyden: false,
+        },
+        budget: 0,
+        z: [0.0; MAX_Z],
+        r: [0.0; MAX_R],
+        merit: f64::INFINITY,
+        fresh: false,
+        lambda: 1e-3,
+        nu: 2.0,
+        rejects: 0,
+        ref_merit: f64::INFINITY,
+        ref_count: 0,
+        wait: Wait::First,
+    };
+
+    /// The point asked for ([`Ask::Eval`]), or where the run ended ([`Ask::Done`]).
+    fn point(&self) -> &Col {
+        match &self.wait {
+            Wait::Column(_, zc) => zc,
+            Wait::Trial(trial, _, _) => trial,
+            Wait::First | Wait::Over => &self.z,
         }
-        let mut merit = norm2(&r);
-        let LmWork { jac, normal } = work;
-        *jac = [[0.0; MAX_Z]; MAX_R];
-        let mut fresh = false;
-        let mut lambda = 1e-3;
-        let mut nu = 2.0;
-        let mut rejects = 0u32;
-        let (mut ref_merit, mut ref_count) = (merit, *count);
-        while *count < budget {
-            if count.saturating_sub(ref_count) > self.patience {
-                break;
-            }
-            if !fresh {
-                // Forward differences, column by column.
-                for c in 0..self.nz {
-                    if *count >= budget {
-                        return (None, z);
-                    }
-                    let mut zc = z;
-                    if let Some(v) = zc.get_mut(c) {
-                        *v += self.fd_step;
-                    }
-                    let Some((rc, met)) = eval(&zc, count) else {
-                        return (None, z);
-                    };
-                    if met {
-                        return (Some(zc), zc);
-                    }
-                    for (row, (a, b)) in jac.iter_mut().zip(rc.iter().zip(r.iter())) {
-                        if let Some(v) = row.get_mut(c) {
-                            *v = (a - b) / self.fd_step;
-                        }
-                    }
-                }
-                fresh = true;
-                rejects = 0;
-            }
-            if lambda > LAMBDA_MAX {
-                return (None, z);
-            }
-            let Some((step, predicted)) = self.step(jac, normal, &r, lambda) else {
-                return (None, z);
-            };
-            let mut trial = z;
-            for (t, s) in trial.iter_mut().zip(step.iter()).take(self.nz) {
-                *t += s;
-            }
-            if *count >= budget {
-                break;
-            }
-            let Some((rt, met)) = eval(&trial, count) else {
-                lambda *= nu;
-                nu *= 2.0;
-                continue;
-            };
-            if met {
-                return (Some(trial), trial);
-            }
-            let mt = norm2(&rt);
-            if self.broyden {
-                let ss = step.iter().take(self.nz).fold(0.0, |s, v| s + v * v);
-                if ss > 0.0 {
-                    for (row, (a, b)) in jac.iter_mut().zip(rt.iter().zip(r.iter())) {
-                        let js = row
-                            .iter()
-                            .zip(step.iter())
-                            .take(self.nz)
-                            .fold(0.0, |s, (x, y)| s + x * y);
-                        let k = ((a - b) - js) / ss;
-                        for (j, s) in row.iter_mut().zip(step.iter()).take(self.nz) {
-                            *j += k * s;
-                        }
-                    }
-                    fresh = false;
-                }
-            }
-            if mt < merit {
-                let rho = if predicted > 0.0 {
-                    (merit - mt) / predicted
-                } else {
-                    0.0
-                };
-                let t = 2.0 * rho - 1.0;
-                lambda = (lambda * (1.0 - t * t * t).max(1.0 / 3.0)).max(LAMBDA_MIN);
-                nu = 2.0;
-                rejects = 0;
-                z = trial;
-                r = rt;
-                merit = mt;
-                if self.sphere_from < self.nz {
-                    let tail = z.get_mut(self.sphere_from..self.nz).unwrap_or(&mut []);
-                    let n = libm::sqrt(tail.iter().fold(0.0, |s, v| s + v * v));
-                    if n > 0.0 {
-                        for v in tail.iter_mut() {
-                            *v /= n;
-                        }
-                    }
-                    // Renormalising leaves r unchanged (η's scale is irrelevant).
-                }
-                if libm::sqrt(mt) <= 0.5 * libm::sqrt(ref_merit) {
-                    ref_merit = mt;
-                    ref_count = *count;
-                }
-                if !self.broyden {
-                    fresh = false;
-                }
-            } else {
-                lambda *= nu;
-                nu *= 2.0;
-                rejects += 1;
-                if self.broyden && rejects >= 2 {
-                    fresh = false;
-                    rejects = 0;
-                }
-            }
-        }
-        (None, z)
     }
 
+    /// Ends the run at `z`.
+    fn done(&mut self, met: bool) -> Ask {
+        self.wait = Wait::Over;
+        Ask::Done(met)
+    }
+
+    /// A run from `z0`; it asks for `z0` first.
+    fn begin(lm: Lm, z0: &Col, budget: u32) -> (Self, Ask) {
+        let run = Self {
+            lm,
+            budget,
+            z: *z0,
+            ..Self::IDLE
+        };
+        (run, Ask::Eval)
+    }
+
+    /// The evaluation asked for: its residual and whether it meets the goal (`None`: it
+    /// failed); `count` after counting it. What the run asks for next.
+    fn tell(&mut self, work: &mut LmWork, reply: Option<(Res, bool)>, count: u32) -> Ask {
+        match self.wait {
+            // Told after it ended (the search never does): it stays over.
+            Wait::Over => Ask::Done(false),
+            Wait::First => {
+                let Some((r, met)) = reply else {
+                    return self.done(false);
+                };
+                if met {
+                    return self.done(true);
+                }
+                self.r = r;
+                self.merit = norm2(&r);
+                work.jac = [[0.0; MAX_Z]; MAX_R];
+                self.ref_merit = self.merit;
+                self.ref_count = count;
+                self.head(work, count)
+            }
+            Wait::Column(c, zc) => {
+                let Some((rc, met)) = reply else {
+                    return self.done(false);
+                };
+                if met {
+                    self.z = zc;
+                    return self.done(true);
+                }
+                for (row, (a, b)) in work.jac.iter_mut().zip(rc.iter().zip(self.r.iter())) {
+                    if let Some(v) = row.get_mut(c) {
+                        *v = (a - b) / self.lm.fd_step;
+                    }
+                }
+                self.column(work, c + 1, count)
+            }
+            Wait::Trial(trial, step, predicted) => {
+                let Some((rt, met)) = reply else {
+                    self.lambda *= self.nu;
+                    self.nu *= 2.0;
+                    return self.head(work, count);
+                };
+                if met {
+                    self.z = trial;
+                    return self.done(true);
+                }
+                self.judge(work, &trial, &step, predicted, &rt, count);
+                self.head(work, count)
+            }
+        }
+    }
+
+    /// The loop's head: the budget and patience tests, then the Jacobian or a step.
+    fn head(&mut self, work: &mut LmWork, count: u32) -> Ask {
+        if count >= self.budget || count.saturating_sub(self.ref_count) > self.lm.patience {
+            return self.done(false);
+        }
+        if self.fresh {
+            self.trial(work, count)
+        } else {
+            self.column(work, 0, count)
+        }
+    }
+
+    /// Forward differences, column `c` on; then a step.
+    fn column(&mut self, work: &mut LmWork, c: usize, count: u32) -> Ask {
+        if c >= self.lm.nz {
+            self.fresh = true;
+            self.rejects = 0;
+            return self.trial(work, count);
+        }
+        if count >= self.budget {
+            return self.done(false);
+        }
+        let mut zc = self.z;
+        if let Some(v) = zc.get_mut(c) {
+            *v += self.lm.fd_step;
+        }
+        self.wait = Wait::Column(c, zc);
+        Ask::Eval
+    }
+
+    /// A trial step from the current Jacobian and damping.
+    fn trial(&mut self, work: &mut LmWork, count: u32) -> Ask {
+        if self.lambda > LAMBDA_MAX {
+            return self.done(false);
+        }
+        let Some((step, predicted)) =
+            self.lm
+                .step(&work.jac, &mut work.normal, &self.r, self.lambda)
+        else {
+            return self.done(false);
+        };
+        let mut trial = self.z;
+        for (t, s) in trial.iter_mut().zip(step.iter()).take(self.lm.nz) {
+            *t += s;
+        }
+        if count >= self.budget {
+            return self.done(false);
+        }
+        self.wait = Wait::Trial(trial, step, predicted);
+        Ask::Eval
+    }
+
+    /// A trial's residual `rt`: the Broyden update, then the step accepted (damping
+    /// lowered) or rejected (raised).
+    fn judge(
+        &mut self,
+        work: &mut LmWork,
+        trial: &Col,
+        step: &Col,
+        predicted: f64,
+        rt: &Res,
+        count: u32,
+    ) {
+        let nz = self.lm.nz;
+        let mt = norm2(rt);
+        if self.lm.broyden {
+            let ss = step.iter().take(nz).fold(0.0, |s, v| s + v * v);
+            if ss > 0.0 {
+                for (row, (a, b)) in work.jac.iter_mut().zip(rt.iter().zip(self.r.iter())) {
+                    let js = row
+                        .iter()
+                        .zip(step.iter())
+                        .take(nz)
+                        .fold(0.0, |s, (x, y)| s + x * y);
+                    let k = ((a - b) - js) / ss;
+                    for (j, s) in row.iter_mut().zip(step.iter()).take(nz) {
+                        *j += k * s;
+                    }
+                }
+                self.fresh = false;
+            }
+        }
+        if mt < self.merit {
+            let rho = if predicted > 0.0 {
+                (self.merit - mt) / predicted
+            } else {
+                0.0
+            };
+            let t = 2.0 * rho - 1.0;
+            self.lambda = (self.lambda * (1.0 - t * t * t).max(1.0 / 3.0)).max(LAMBDA_MIN);
+            self.nu = 2.0;
+            self.rejects = 0;
+            self.z = *trial;
+            self.r = *rt;
+            self.merit = mt;
+            if self.lm.sphere_from < nz {
+                let tail = self.z.get_mut(self.lm.sphere_from..nz).unwrap_or(&mut []);
+                let n = libm::sqrt(tail.iter().fold(0.0, |s, v| s + v * v));
+                if n > 0.0 {
+                    for v in tail.iter_mut() {
+                        *v /= n;
+                    }
+                }
+                // Renormalising leaves r unchanged (η's scale is irrelevant).
+            }
+            if libm::sqrt(mt) <= 0.5 * libm::sqrt(self.ref_merit) {
+                self.ref_merit = mt;
+                self.ref_count = count;
+            }
+            if !self.lm.broyden {
+                self.fresh = false;
+            }
+        } else {
+            self.lambda *= self.nu;
+            self.nu *= 2.0;
+            self.rejects += 1;
+            if self.lm.broyden && self.rejects >= 2 {
+                self.fresh = false;
+                self.rejects = 0;
+            }
+        }
+    }
+}
+
+impl Lm {
     /// `δ = Jᵀ y`, `(J Jᵀ + μ I) y = −r`; and the predicted decrease of `‖r‖²`.
     fn step(
         &self,

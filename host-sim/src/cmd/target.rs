@@ -20,7 +20,8 @@
 //!    re-timing's instructions and static RAM are checked against their budgets.
 //!
 //! 8. a task with `[preshape]` is a two-phase block (`RLTASK04`, `RLTASK05` with
-//!    `--retime`): the image plans both phases in one call and reports phase 2 as a plan,
+//!    `--retime`): the image plans both phases with the resumable search, one unit per
+//!    call (`calls` frames, timed as single-phase frames are), and reports phase 2 as a plan,
 //!    plus how the search ended, phase 1's digest, the wheels' demand and `q_s`; all are
 //!    compared bit for bit with the host's two-phase plan
 //!    (`crate::flight::flight_outputs`), and `--retime` re-times phase 2.
@@ -114,7 +115,7 @@ pub struct TargetJson {
     /// The image.
     pub elf: String,
     /// A two-phase task: how the search ended on the target (`converged`, `exhausted`,
-    /// `beyond_reach`, `preshape_bounds`); the one call is `calls` = 1.
+    /// `beyond_reach`, `preshape_bounds`); `calls` are then search units, one per frame.
     pub two_phase_stop: Option<String>,
 }
 
@@ -831,9 +832,14 @@ fn print_report(r: &TargetJson, setpoints: Option<u32>) {
     );
     println!("instructions per step      {}", r.instructions_per_step);
     println!("instructions per rollout   {}", r.instructions_per_rollout);
+    let slice = if r.two_phase_stop.is_some() {
+        "1 search unit".to_owned()
+    } else {
+        format!("{} steps", r.frame_budget)
+    };
     println!(
-        "instructions per call      {} max, {:.0} mean over {} calls of {} steps",
-        r.max_instructions_per_call, r.mean_instructions_per_call, r.calls, r.frame_budget
+        "instructions per call      {} max, {:.0} mean over {} calls of {slice}",
+        r.max_instructions_per_call, r.mean_instructions_per_call, r.calls
     );
     println!(
         "stack high-water           {} bytes (budget {STACK_BUDGET})",
@@ -856,8 +862,9 @@ fn print_report(r: &TargetJson, setpoints: Option<u32>) {
     println!("flash                      {} bytes", r.flash_bytes);
     if let Some(stop) = &r.two_phase_stop {
         println!(
-            "two-phase plan             {stop}: both phases in one call of {} instructions",
-            r.max_instructions_per_call
+            "two-phase plan             {stop}: both phases in {} calls of one search unit, {} instructions in all",
+            r.calls,
+            (r.mean_instructions_per_call * r.calls as f64).round()
         );
     }
     println!(

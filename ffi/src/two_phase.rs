@@ -1,0 +1,318 @@
+//! Two-phase plans (spec §15) through the C ABI: the resumable, budgeted two-phase search
+//! (`reactionless::twophase::TwoPhaseSearch`, 7 joints, K = 4) in caller-owned storage.
+//!
+//! Owns [`rl_two_phase`] (the search's storage), [`rl_two_phase_plan`] (what a finished
+//! search reports) and their functions `rl_two_phase_init`, `rl_two_phase_load_block` and
+//! `rl_two_phase_step`. The same contract as [`crate::rl_planner`]: the caller's header
+//! version and `sizeof` are checked at init, storage is the caller's (static app data),
+//! every pointer is checked for NULL and every object for its state, nothing panics.
+//!
+//! A two-phase block (`RLTASK04`, `RLTASK05`: a task with `[preshape]`) goes here; the
+//! single-phase `rl_planner` refuses it (`RL_E_TWO_PHASE`) and this refuses a single-phase
+//! block (`RL_E_ONE_PHASE`). A unit of `rl_two_phase_step`'s budget is one move of the
+//! search (at most one evaluation: a forward kinematics of the reach check, a rollout, or
+//! the truth-model test of a start that met the goal); any slicing gives the same bits.
+//! Not yet here: streaming the two phases' setpoints, and checkpoints of the search.
+//!
+//! Verifies RL-FFI-011.
+
+use core::mem::{align_of, size_of};
+use reactionless::block::decode;
+use reactionless::twophase::{TwoPhasePlan, TwoPhaseSearch, TwoPhaseStatus, TwoPhaseStop};
+use reactionless::{BlockFault, Error};
+
+use crate::{
+    RL_ABI_VERSION, RL_BEYOND_REACH, RL_CONVERGED, RL_E_ABI_VERSION, RL_E_BLOCK_CRC,
+    RL_E_BLOCK_FIELD, RL_E_BLOCK_JOINTS, RL_E_BLOCK_LENGTH, RL_E_BLOCK_MAGIC, RL_E_INVALID_TASK,
+    RL_E_NO_TASK, RL_E_NULL, RL_E_ONE_PHASE, RL_E_PLANNING, RL_E_SIZE, RL_E_UNINITIALIZED,
+    RL_ETA_LEN, RL_EXHAUSTED, RL_JOINTS, RL_OK, RL_PRESHAPE_BOUNDS, RL_RUNNING, checkpoint,
+    rl_status,
+};
+
+/// The flight two-phase search: 7 joints, null-space dimension 4.
+pub type FlightTwoPhase = TwoPhaseSearch<7, 4>;
+
+/// Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
+/// target, with headroom so that a small growth of the core keeps the ABI.
+pub const RL_TWO_PHASE_WORDS: usize = 2600;
+
+const TWO_PHASE_MAGIC: u32 = 0x524c_5432; // "RLT2"
+
+const _: () = assert!(size_of::<FlightTwoPhase>() <= RL_TWO_PHASE_WORDS * 8);
+const _: () = assert!(align_of::<FlightTwoPhase>() <= align_of::<u64>());
+
+/// A two-phase search in caller-owned storage (static app data). Initialise with
+/// `rl_two_phase_init`; the members are private to the library.
+#[repr(C)]
+pub struct rl_two_phase {
+    /// Set by `rl_two_phase_init`.
+    magic: u32,
+    /// 1 once a two-phase block is loaded.
+    loaded: u32,
+    /// Digest of the loaded task block (FNV-1a-64).
+    task: u64,
+    /// The search itself.
+    storage: [u64; RL_TWO_PHASE_WORDS],
+}
+
+/// A finished two-phase plan (filled by `rl_two_phase_step` once it returns
+/// `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_BEYOND_REACH` or `RL_PRESHAPE_BOUNDS`): phase 1
+/// from the task's start to `q_s` with the base attitude held by the attitude control, then
+/// phase 2, the reactionless motion of `eta` from `q_s`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct rl_two_phase_plan {
+    /// Start of phase 2 (rad), within the joint limits.
+    pub q_s: [f64; RL_JOINTS],
+    /// Phase 2's η: `a1, b1, a2, b2, …`.
+    pub eta: [f64; RL_ETA_LEN],
+    /// Pose error norm `f` of phase 2's rollout (planner model; NaN when none was rolled
+    /// out: a target beyond reach).
+    pub f: f64,
+    /// Constraint violation Φ of phase 2 (rad; NaN as `f`).
+    pub phi: f64,
+    /// End-effector position at the end of phase 2 (m, inertial frame; NaN as `f`).
+    pub end_position: [f64; 3],
+    /// End-effector attitude at the end of phase 2, quaternion `w, x, y, z` (NaN as `f`).
+    pub end_quat_wxyz: [f64; 4],
+    /// Phase 1's duration (s).
+    pub phase1_duration_s: f64,
+    /// Phase 1's largest wheel momentum (N m s) on its written samples.
+    pub wheel_momentum_nms: f64,
+    /// Phase 1's largest wheel torque (N m) on its written samples.
+    pub wheel_torque_nm: f64,
+    /// How far phase 1 moves the base (m, inertial frame; the CoM stays put).
+    pub base_shift_m: [f64; 3],
+    /// `f` of the reach check's kinematic inverse (m and rad).
+    pub reach_f: f64,
+    /// Phase 2's largest base rotation on the truth model (rad; NaN unless converged).
+    pub base_disturbance_rad: f64,
+    /// Phase 1's integration steps of the task's `dt`.
+    pub phase1_steps: u32,
+    /// Rollouts spent.
+    pub rollouts: u32,
+    /// LM starts begun.
+    pub starts: u32,
+    /// 1 if the plan met its tolerance (`RL_CONVERGED`), else 0.
+    pub converged: u32,
+}
+
+impl rl_two_phase_plan {
+    /// All zero.
+    pub const ZEROED: Self = Self {
+        q_s: [0.0; RL_JOINTS],
+        eta: [0.0; RL_ETA_LEN],
+        f: 0.0,
+        phi: 0.0,
+        end_position: [0.0; 3],
+        end_quat_wxyz: [0.0; 4],
+        phase1_duration_s: 0.0,
+        wheel_momentum_nms: 0.0,
+        wheel_torque_nm: 0.0,
+        base_shift_m: [0.0; 3],
+        reach_f: 0.0,
+        base_disturbance_rad: 0.0,
+        phase1_steps: 0,
+        rollouts: 0,
+        starts: 0,
+        converged: 0,
+    };
+
+    /// The C view of `p`.
+    #[must_use]
+    pub fn of(p: &TwoPhasePlan<7, 4>) -> Self {
+        let mut eta = [0.0; RL_ETA_LEN];
+        for (d, s) in eta.iter_mut().zip(p.eta.iter().flatten()) {
+            *d = *s;
+        }
+        let (f, phi, end_position, end_quat_wxyz) = match &p.outcome {
+            Some(o) => (o.f, o.phi, o.end_pose.position, o.end_pose.quat_wxyz),
+            None => (f64::NAN, f64::NAN, [f64::NAN; 3], [f64::NAN; 4]),
+        };
+        Self {
+            q_s: p.q_s,
+            eta,
+            f,
+            phi,
+            end_position,
+            end_quat_wxyz,
+            phase1_duration_s: p.preshape.duration(),
+            wheel_momentum_nms: p.demand.momentum_nms,
+            wheel_torque_nm: p.demand.torque_nm,
+            base_shift_m: p.demand.base_shift_m,
+            reach_f: p.reach_f,
+            base_disturbance_rad: p.base_disturbance,
+            phase1_steps: p.preshape.steps(),
+            rollouts: p.rollouts,
+            starts: p.starts,
+            converged: u32::from(p.converged()),
+        }
+    }
+}
+
+impl rl_two_phase {
+    /// All zero: not initialised (for Rust callers that need a value to box).
+    pub const ZEROED: Self = Self {
+        magic: 0,
+        loaded: 0,
+        task: 0,
+        storage: [0; RL_TWO_PHASE_WORDS],
+    };
+
+    /// The search, mutably, if `rl_two_phase_init` has run on this storage.
+    #[allow(unsafe_code)]
+    fn search_mut(&mut self) -> Option<&mut FlightTwoPhase> {
+        (self.magic == TWO_PHASE_MAGIC).then(|| {
+            // SAFETY: the magic is written only by rl_two_phase_init, right after it wrote
+            // a FlightTwoPhase into `storage` (size and alignment asserted above); from
+            // then on `storage` is only written as that search. `&mut self` makes the
+            // borrow exclusive.
+            unsafe { &mut *self.storage.as_mut_ptr().cast::<FlightTwoPhase>() }
+        })
+    }
+
+    fn load(&mut self, block: &[u8]) -> rl_status {
+        if self.magic != TWO_PHASE_MAGIC {
+            return RL_E_UNINITIALIZED;
+        }
+        self.loaded = 0;
+        let decoded = match decode::<7>(block) {
+            Ok(b) => b,
+            Err(e) => return load_error(e),
+        };
+        let Some(search) = self.search_mut() else {
+            return RL_E_UNINITIALIZED;
+        };
+        if let Err(e) = decoded.load_two_phase_into(search) {
+            return load_error(e);
+        }
+        self.task = checkpoint::task_digest(block);
+        self.loaded = 1;
+        RL_OK
+    }
+
+    fn step(&mut self, budget: u32, plan: &mut rl_two_phase_plan) -> rl_status {
+        let loaded = self.loaded == 1;
+        let Some(search) = self.search_mut() else {
+            return RL_E_UNINITIALIZED;
+        };
+        if !loaded {
+            return RL_E_NO_TASK;
+        }
+        match search.step(budget) {
+            Ok(TwoPhaseStatus::Running) => RL_RUNNING,
+            Ok(TwoPhaseStatus::Finished(p)) => {
+                *plan = rl_two_phase_plan::of(&p);
+                match p.stop {
+                    TwoPhaseStop::Converged => RL_CONVERGED,
+                    TwoPhaseStop::Exhausted => RL_EXHAUSTED,
+                    TwoPhaseStop::BeyondReach => RL_BEYOND_REACH,
+                    TwoPhaseStop::PreshapeBounds => RL_PRESHAPE_BOUNDS,
+                }
+            }
+            Err(Error::NotInitialized) => RL_E_NO_TASK,
+            Err(_) => RL_E_PLANNING,
+        }
+    }
+}
+
+fn load_error(e: Error) -> rl_status {
+    match e {
+        Error::NotTwoPhase => RL_E_ONE_PHASE,
+        Error::Block(BlockFault::Magic) => RL_E_BLOCK_MAGIC,
+        Error::Block(BlockFault::JointCount) => RL_E_BLOCK_JOINTS,
+        Error::Block(BlockFault::Length | BlockFault::Truncated) => RL_E_BLOCK_LENGTH,
+        Error::Block(BlockFault::Checksum) => RL_E_BLOCK_CRC,
+        Error::Block(BlockFault::Field) => RL_E_BLOCK_FIELD,
+        _ => RL_E_INVALID_TASK,
+    }
+}
+
+/// Initialises `t` as an idle two-phase search without a task. `abi_version` and
+/// `size` are the caller's `RL_ABI_VERSION` and `sizeof(rl_two_phase)`: a mismatch is
+/// `RL_E_ABI_VERSION` or `RL_E_SIZE`, and `t` is left untouched.
+///
+/// # Safety
+/// `t` is NULL or points to writable, aligned storage of `sizeof(rl_two_phase)` bytes that
+/// nothing else accesses during the call; it need not be initialised.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_init(
+    t: *mut rl_two_phase,
+    abi_version: u32,
+    size: usize,
+) -> rl_status {
+    if t.is_null() {
+        return RL_E_NULL;
+    }
+    if abi_version != RL_ABI_VERSION {
+        return RL_E_ABI_VERSION;
+    }
+    if size != size_of::<rl_two_phase>() {
+        return RL_E_SIZE;
+    }
+    // SAFETY: `t` is non-NULL and, by the contract, valid for writes of one rl_two_phase;
+    // only writes happen. The search goes to `storage`, whose size and alignment fit it
+    // (asserted at compile time).
+    unsafe {
+        core::ptr::addr_of_mut!((*t).storage)
+            .cast::<FlightTwoPhase>()
+            .write(FlightTwoPhase::IDLE);
+        core::ptr::addr_of_mut!((*t).loaded).write(0);
+        core::ptr::addr_of_mut!((*t).task).write(0);
+        core::ptr::addr_of_mut!((*t).magic).write(TWO_PHASE_MAGIC);
+    }
+    RL_OK
+}
+
+/// Loads a two-phase task block (`RLTASK04` or `RLTASK05`, the bytes `host-sim block TASK
+/// --out FILE` writes for a task with `[preshape]`), validated as `rl_planner_load_block`
+/// validates; a single-phase block is `RL_E_ONE_PHASE` (plan it with `rl_planner`). On
+/// success the search starts from scratch with the block's seed; on failure it has no task
+/// (`RL_E_NO_TASK` from `rl_two_phase_step`) and the status names the fault.
+///
+/// # Safety
+/// `t` is NULL or initialised by `rl_two_phase_init`, not accessed elsewhere during the
+/// call; `block` is NULL or readable for `len` bytes.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_load_block(
+    t: *mut rl_two_phase,
+    block: *const u8,
+    len: usize,
+) -> rl_status {
+    if block.is_null() {
+        return RL_E_NULL;
+    }
+    // SAFETY: non-NULL; by the contract `t` is exclusive and `block` readable for `len`
+    // bytes and not written during the call.
+    match unsafe { t.as_mut() } {
+        Some(t) => t.load(unsafe { core::slice::from_raw_parts(block, len) }),
+        None => RL_E_NULL,
+    }
+}
+
+/// Moves the search on by at most `budget` units (one move of the search each: a forward
+/// kinematics of the reach check, a rollout, or the truth-model test of a start that met
+/// the goal, the largest). Returns `RL_RUNNING` while there is more to do, then
+/// `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_BEYOND_REACH` or `RL_PRESHAPE_BOUNDS` with `*plan`
+/// filled (and the same again, without work, on every later call). `plan` is untouched
+/// while running. Any slicing gives the same plan bit for bit.
+///
+/// # Safety
+/// `t` is NULL or an initialised search and `plan` NULL or a writable
+/// rl_two_phase_plan, neither accessed elsewhere during the call.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_step(
+    t: *mut rl_two_phase,
+    budget: u32,
+    plan: *mut rl_two_phase_plan,
+) -> rl_status {
+    // SAFETY: as_mut checks for NULL; the contract makes both references valid and
+    // exclusive for the call.
+    match unsafe { (t.as_mut(), plan.as_mut()) } {
+        (Some(t), Some(plan)) => t.step(budget, plan),
+        _ => RL_E_NULL,
+    }
+}

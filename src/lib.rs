@@ -94,7 +94,7 @@ pub use optimizer::{
     Candidate, Evaluation, Event, Method, Next, Observer, Optimizer, SearchReport, Stop,
 };
 pub use planner::{Plan, Planner, Running, Stage, Status};
-pub use preshape::{Demand, Preshape, PreshapeLimits};
+pub use preshape::{Demand, Preshape, PreshapeLimits, PreshapeSetpoints};
 pub use refine::{RefineReport, RefineStop};
 pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
 pub use strategy::Search;

@@ -166,7 +166,7 @@ fn bad_settings_are_typed_errors() {
 /// The search stepped in slices of any size (1 unit per call, 7, 1,000) gives the bits of
 /// one unlimited call, for a plan that converges, one beyond reach, one refused on the
 /// wheels and one whose budget runs out; each call does at most its budget; the stages
-/// come in order and the rollouts never pass the budget by more than one.
+/// come in order and the rollouts never pass the budget by more than two.
 /// Verifies RL-TWO-006.
 #[test]
 fn any_slicing_gives_the_bits_of_one_call() {
@@ -216,7 +216,7 @@ fn any_slicing_gives_the_bits_of_one_call() {
                 let before = search.spent();
                 let status = search.step(budget).unwrap();
                 assert!(search.spent() - before <= u64::from(budget));
-                assert!(search.rollouts() <= config.max_rollouts + 1);
+                assert!(search.rollouts() <= config.max_rollouts + 2);
                 if stages.last() != Some(&search.stage()) {
                     stages.push(search.stage());
                 }

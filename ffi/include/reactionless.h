@@ -458,6 +458,11 @@ typedef struct rl_two_phase_plan {
  */
 #define RL_E_ONE_PHASE -24
 
+/*
+ A phase number other than 1 or 2 (`rl_two_phase_setpoints_init`).
+ */
+#define RL_E_PHASE -25
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -615,6 +620,36 @@ rl_status rl_two_phase_load_block(struct rl_two_phase *t, const uint8_t *block, 
 rl_status rl_two_phase_step(struct rl_two_phase *t,
                             uint32_t budget,
                             struct rl_two_phase_plan *plan);
+
+/*
+ Starts streaming phase `phase` (1 or 2) of `t`'s finished plan into `s`: phase 1 from
+ the task's start to `q_s` (the attitude control holding the base), or phase 2, the
+ reactionless motion from `q_s` (the attitude control off). Each starts at `t = 0`; phase
+ 1 ends at rest at `q_s`, where phase 2 starts. `RL_E_NO_PLAN` before
+ `rl_two_phase_step` finished, or for phase 2 of a plan that has none (a target beyond
+ reach); `RL_E_PHASE` for another phase number.
+
+ # Safety
+ `s` is NULL or writable, aligned storage of `sizeof(rl_setpoints)` bytes (it need not be
+ initialised); `t` NULL or an initialised search; neither accessed elsewhere.
+ */
+rl_status rl_two_phase_setpoints_init(struct rl_setpoints *s,
+                                      const struct rl_two_phase *t,
+                                      uint32_t phase);
+
+/*
+ The next setpoint of a phase's stream in `*out` (`RL_OK`), `t` from 0 in steps of the
+ task's `dt`; after the last, `RL_DONE` on every call. At most one integration step per
+ call. `t` must be the search the stream was started from (`RL_E_MISMATCH` otherwise, and
+ for a single-phase stream: use `rl_setpoints_next`).
+
+ # Safety
+ `s` NULL or a stream initialised by `rl_two_phase_setpoints_init`; `t` NULL or an
+ initialised search; `out` NULL or writable; none accessed elsewhere during the call.
+ */
+rl_status rl_two_phase_setpoints_next(struct rl_setpoints *s,
+                                      const struct rl_two_phase *t,
+                                      struct rl_setpoint *out);
 
 #ifdef __cplusplus
 }  // extern "C"

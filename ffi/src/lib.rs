@@ -52,7 +52,7 @@ pub mod two_phase;
 
 pub use two_phase::{
     FlightTwoPhase, RL_TWO_PHASE_WORDS, rl_two_phase, rl_two_phase_init, rl_two_phase_load_block,
-    rl_two_phase_plan, rl_two_phase_step,
+    rl_two_phase_plan, rl_two_phase_setpoints_init, rl_two_phase_setpoints_next, rl_two_phase_step,
 };
 
 use core::ffi::c_char;
@@ -157,6 +157,8 @@ pub const RL_E_TWO_PHASE: rl_status = -23;
 /// The block is single-phase: `rl_two_phase` plans two-phase blocks only; load it into an
 /// `rl_planner`.
 pub const RL_E_ONE_PHASE: rl_status = -24;
+/// A phase number other than 1 or 2 (`rl_two_phase_setpoints_init`).
+pub const RL_E_PHASE: rl_status = -25;
 
 const PLANNER_MAGIC: u32 = 0x524c_504e; // "RLPN"
 const SETPOINTS_MAGIC: u32 = 0x524c_5350; // "RLSP"
@@ -407,6 +409,14 @@ impl rl_planner {
 }
 
 impl rl_setpoints {
+    /// All zero: not initialised (for Rust callers that need a value to box).
+    pub const ZEROED: Self = Self {
+        magic: 0,
+        done: 0,
+        task: 0,
+        storage: [0; RL_SETPOINTS_WORDS],
+    };
+
     /// The stream, if `rl_setpoints_init` has run on this storage.
     #[allow(unsafe_code)]
     fn stream_mut(&mut self) -> Option<&mut FlightSetpoints> {
@@ -418,6 +428,10 @@ impl rl_setpoints {
     }
 
     fn next(&mut self, p: &rl_planner, out: &mut rl_setpoint) -> rl_status {
+        if self.magic == two_phase::PHASE1_MAGIC || self.magic == two_phase::PHASE2_MAGIC {
+            // A two-phase stream: rl_two_phase_setpoints_next.
+            return RL_E_MISMATCH;
+        }
         let (task, done) = (self.task, self.done == 1);
         let Some(stream) = self.stream_mut() else {
             return RL_E_UNINITIALIZED;
@@ -758,6 +772,7 @@ pub extern "C" fn rl_status_str(s: rl_status) -> *const c_char {
         RL_E_TWO_PHASE => {
             c"RL_E_TWO_PHASE: a two-phase block; rl_planner plans single-phase tasks (use rl_two_phase)"
         }
+        RL_E_PHASE => c"RL_E_PHASE: a two-phase plan has phases 1 and 2 only",
         RL_E_ONE_PHASE => {
             c"RL_E_ONE_PHASE: a single-phase block; rl_two_phase plans two-phase tasks (use rl_planner)"
         }

@@ -2,8 +2,9 @@
 //! (`reactionless::twophase::TwoPhaseSearch`, 7 joints, K = 4) in caller-owned storage.
 //!
 //! Owns [`rl_two_phase`] (the search's storage), [`rl_two_phase_plan`] (what a finished
-//! search reports) and their functions `rl_two_phase_init`, `rl_two_phase_load_block` and
-//! `rl_two_phase_step`. The same contract as [`crate::rl_planner`]: the caller's header
+//! search reports) and their functions `rl_two_phase_init`, `rl_two_phase_load_block`,
+//! `rl_two_phase_step`, and the streams of the two phases' setpoints in an
+//! [`crate::rl_setpoints`] (`rl_two_phase_setpoints_init`, `rl_two_phase_setpoints_next`). The same contract as [`crate::rl_planner`]: the caller's header
 //! version and `sizeof` are checked at init, storage is the caller's (static app data),
 //! every pointer is checked for NULL and every object for its state, nothing panics.
 //!
@@ -12,21 +13,24 @@
 //! block (`RL_E_ONE_PHASE`). A unit of `rl_two_phase_step`'s budget is one move of the
 //! search (at most one evaluation: a forward kinematics of the reach check, a rollout, or
 //! the truth-model test of a start that met the goal); any slicing gives the same bits.
-//! Not yet here: streaming the two phases' setpoints, and checkpoints of the search.
+//! Each phase streams on its own, `t` from 0: phase 1 under attitude control, then phase 2
+//! free floating; what is streamed is what was planned, bit for bit. Not yet here:
+//! checkpoints of the search.
 //!
 //! Verifies RL-FFI-011.
 
 use core::mem::{align_of, size_of};
 use reactionless::block::decode;
 use reactionless::twophase::{TwoPhasePlan, TwoPhaseSearch, TwoPhaseStatus, TwoPhaseStop};
-use reactionless::{BlockFault, Error};
+use reactionless::{BlockFault, Error, PreshapeSetpoints, Sample};
 
 use crate::{
-    RL_ABI_VERSION, RL_BEYOND_REACH, RL_CONVERGED, RL_E_ABI_VERSION, RL_E_BLOCK_CRC,
-    RL_E_BLOCK_FIELD, RL_E_BLOCK_JOINTS, RL_E_BLOCK_LENGTH, RL_E_BLOCK_MAGIC, RL_E_INVALID_TASK,
-    RL_E_NO_TASK, RL_E_NULL, RL_E_ONE_PHASE, RL_E_PLANNING, RL_E_SIZE, RL_E_UNINITIALIZED,
-    RL_ETA_LEN, RL_EXHAUSTED, RL_JOINTS, RL_OK, RL_PRESHAPE_BOUNDS, RL_RUNNING, checkpoint,
-    rl_status,
+    FlightSetpoints, RL_ABI_VERSION, RL_BEYOND_REACH, RL_CONVERGED, RL_DONE, RL_E_ABI_VERSION,
+    RL_E_BLOCK_CRC, RL_E_BLOCK_FIELD, RL_E_BLOCK_JOINTS, RL_E_BLOCK_LENGTH, RL_E_BLOCK_MAGIC,
+    RL_E_INVALID_TASK, RL_E_MISMATCH, RL_E_NO_PLAN, RL_E_NO_TASK, RL_E_NULL, RL_E_ONE_PHASE,
+    RL_E_PHASE, RL_E_PLANNING, RL_E_SIZE, RL_E_STREAM, RL_E_UNINITIALIZED, RL_ETA_LEN,
+    RL_EXHAUSTED, RL_JOINTS, RL_OK, RL_PRESHAPE_BOUNDS, RL_RUNNING, RL_SETPOINTS_WORDS, checkpoint,
+    rl_setpoint, rl_setpoints, rl_status,
 };
 
 /// The flight two-phase search: 7 joints, null-space dimension 4.
@@ -37,9 +41,15 @@ pub type FlightTwoPhase = TwoPhaseSearch<7, 4>;
 pub const RL_TWO_PHASE_WORDS: usize = 2600;
 
 const TWO_PHASE_MAGIC: u32 = 0x524c_5432; // "RLT2"
+/// An [`rl_setpoints`] streaming phase 1 (it holds a `PreshapeSetpoints<7>`).
+pub(crate) const PHASE1_MAGIC: u32 = 0x524c_5331; // "RLS1"
+/// An [`rl_setpoints`] streaming phase 2 (it holds a `FlightSetpoints` from `q_s`).
+pub(crate) const PHASE2_MAGIC: u32 = 0x524c_5332; // "RLS2"
 
 const _: () = assert!(size_of::<FlightTwoPhase>() <= RL_TWO_PHASE_WORDS * 8);
 const _: () = assert!(align_of::<FlightTwoPhase>() <= align_of::<u64>());
+const _: () = assert!(size_of::<PreshapeSetpoints<7>>() <= RL_SETPOINTS_WORDS * 8);
+const _: () = assert!(align_of::<PreshapeSetpoints<7>>() <= align_of::<u64>());
 
 /// A two-phase search in caller-owned storage (static app data). Initialise with
 /// `rl_two_phase_init`; the members are private to the library.
@@ -191,6 +201,19 @@ impl rl_two_phase {
         RL_OK
     }
 
+    /// The search, if `rl_two_phase_init` has run on this storage and a block is loaded.
+    #[allow(unsafe_code)]
+    fn loaded(&self) -> Result<&FlightTwoPhase, rl_status> {
+        if self.magic != TWO_PHASE_MAGIC {
+            return Err(RL_E_UNINITIALIZED);
+        }
+        if self.loaded != 1 {
+            return Err(RL_E_NO_TASK);
+        }
+        // SAFETY: as in `search_mut` (the magic says a FlightTwoPhase is in `storage`).
+        Ok(unsafe { &*self.storage.as_ptr().cast::<FlightTwoPhase>() })
+    }
+
     fn step(&mut self, budget: u32, plan: &mut rl_two_phase_plan) -> rl_status {
         let loaded = self.loaded == 1;
         let Some(search) = self.search_mut() else {
@@ -314,5 +337,145 @@ pub unsafe extern "C" fn rl_two_phase_step(
     match unsafe { (t.as_mut(), plan.as_mut()) } {
         (Some(t), Some(plan)) => t.step(budget, plan),
         _ => RL_E_NULL,
+    }
+}
+
+/// Starts streaming phase `phase` (1 or 2) of `t`'s finished plan into `s`: phase 1 from
+/// the task's start to `q_s` (the attitude control holding the base), or phase 2, the
+/// reactionless motion from `q_s` (the attitude control off). Each starts at `t = 0`; phase
+/// 1 ends at rest at `q_s`, where phase 2 starts. `RL_E_NO_PLAN` before
+/// `rl_two_phase_step` finished, or for phase 2 of a plan that has none (a target beyond
+/// reach); `RL_E_PHASE` for another phase number.
+///
+/// # Safety
+/// `s` is NULL or writable, aligned storage of `sizeof(rl_setpoints)` bytes (it need not be
+/// initialised); `t` NULL or an initialised search; neither accessed elsewhere.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_setpoints_init(
+    s: *mut rl_setpoints,
+    t: *const rl_two_phase,
+    phase: u32,
+) -> rl_status {
+    // SAFETY: as_ref checks for NULL; the contract makes the reference valid.
+    let Some(t) = (unsafe { t.as_ref() }) else {
+        return RL_E_NULL;
+    };
+    if s.is_null() {
+        return RL_E_NULL;
+    }
+    let search = match t.loaded() {
+        Ok(search) => search,
+        Err(st) => return st,
+    };
+    let Some(plan) = search.plan() else {
+        return RL_E_NO_PLAN;
+    };
+    match phase {
+        1 => {
+            let stream = plan.preshape.setpoints();
+            // SAFETY: `s` is non-NULL and, by the contract, valid for writes of one
+            // rl_setpoints; only writes happen. The stream fits `storage` (asserted at
+            // compile time).
+            unsafe { start(s, stream, t.task, PHASE1_MAGIC) };
+            RL_OK
+        }
+        2 => {
+            let (Some(task), Some(_)) = (search.phase2_task(), plan.outcome) else {
+                return RL_E_NO_PLAN;
+            };
+            let Ok(stream) = FlightSetpoints::new(task, &plan.eta) else {
+                return RL_E_STREAM;
+            };
+            // SAFETY: as for phase 1.
+            unsafe { start(s, stream, t.task, PHASE2_MAGIC) };
+            RL_OK
+        }
+        _ => RL_E_PHASE,
+    }
+}
+
+/// Writes `stream` into `s`'s storage and marks it with `magic`.
+///
+/// # Safety
+/// `s` is non-NULL, valid for writes of one rl_setpoints, and `T` fits its storage.
+#[allow(unsafe_code)]
+unsafe fn start<T>(s: *mut rl_setpoints, stream: T, task: u64, magic: u32) {
+    // SAFETY: by this function's contract.
+    unsafe {
+        core::ptr::addr_of_mut!((*s).storage)
+            .cast::<T>()
+            .write(stream);
+        core::ptr::addr_of_mut!((*s).done).write(0);
+        core::ptr::addr_of_mut!((*s).task).write(task);
+        core::ptr::addr_of_mut!((*s).magic).write(magic);
+    }
+}
+
+/// The next setpoint of a phase's stream in `*out` (`RL_OK`), `t` from 0 in steps of the
+/// task's `dt`; after the last, `RL_DONE` on every call. At most one integration step per
+/// call. `t` must be the search the stream was started from (`RL_E_MISMATCH` otherwise, and
+/// for a single-phase stream: use `rl_setpoints_next`).
+///
+/// # Safety
+/// `s` NULL or a stream initialised by `rl_two_phase_setpoints_init`; `t` NULL or an
+/// initialised search; `out` NULL or writable; none accessed elsewhere during the call.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_setpoints_next(
+    s: *mut rl_setpoints,
+    t: *const rl_two_phase,
+    out: *mut rl_setpoint,
+) -> rl_status {
+    // SAFETY: as_mut/as_ref check for NULL; the contract makes the references valid and
+    // `s`, `out` exclusive.
+    let (Some(s), Some(t), Some(out)) = (unsafe { (s.as_mut(), t.as_ref(), out.as_mut()) }) else {
+        return RL_E_NULL;
+    };
+    let search = match t.loaded() {
+        Ok(search) => search,
+        Err(st) => return st,
+    };
+    if s.magic != PHASE1_MAGIC && s.magic != PHASE2_MAGIC {
+        return if s.magic == crate::SETPOINTS_MAGIC {
+            RL_E_MISMATCH
+        } else {
+            RL_E_UNINITIALIZED
+        };
+    }
+    if s.task != t.task {
+        return RL_E_MISMATCH;
+    }
+    if s.done == 1 {
+        return RL_DONE;
+    }
+    let next: Result<Option<Sample<7>>, Error> = if s.magic == PHASE1_MAGIC {
+        // SAFETY: PHASE1_MAGIC is written only by rl_two_phase_setpoints_init, right after
+        // it wrote a PreshapeSetpoints<7> into `storage` (size and alignment asserted).
+        let stream = unsafe { &mut *s.storage.as_mut_ptr().cast::<PreshapeSetpoints<7>>() };
+        Ok(stream.next())
+    } else {
+        let Some(task) = search.phase2_task() else {
+            return RL_E_NO_PLAN;
+        };
+        // SAFETY: PHASE2_MAGIC is written only by rl_two_phase_setpoints_init, right after
+        // it wrote a FlightSetpoints into `storage` (size and alignment asserted in lib.rs).
+        let stream = unsafe { &mut *s.storage.as_mut_ptr().cast::<FlightSetpoints>() };
+        stream.next(task)
+    };
+    match next {
+        Ok(Some(sp)) => {
+            *out = rl_setpoint {
+                t: sp.t,
+                q: sp.q,
+                qd: sp.qd,
+            };
+            RL_OK
+        }
+        Ok(None) => {
+            s.done = 1;
+            RL_DONE
+        }
+        Err(_) => RL_E_STREAM,
     }
 }

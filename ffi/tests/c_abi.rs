@@ -153,7 +153,8 @@ fn header_compiles_as_cpp11() {
 /// A C program plans a two-phase block (the joint-space target 20° per joint away) with
 /// `rl_two_phase` in frames of 25 units, through the checked-in header, and gets the bits
 /// the host plans for the same task file: `q_s`, η, `f`, the counts, the inverse's `f`, the
-/// base disturbance and the wheels' demand.
+/// base disturbance and the wheels' demand; then streams both phases, whose digests are the
+/// host's (phase1.csv's, and phase 2's rollout from `q_s`).
 /// Verifies RL-FFI-011.
 #[test]
 fn c_program_plans_a_two_phase_block() {
@@ -208,6 +209,10 @@ fn c_program_plans_a_two_phase_block() {
     for (i, b) in host.outputs.eta_bits.iter().enumerate() {
         want(&format!("ETA{i}"), b.clone());
     }
+    want("DIGEST1", field("digest1"));
+    want("SAMPLES1", field("samples1"));
+    want("DIGEST2", host.outputs.trajectory_digest.clone());
+    want("SAMPLES2", host.outputs.trajectory_samples.to_string());
     let frames: u32 = got["FRAMES"].parse().unwrap();
     assert!(frames > 10, "{frames} frames");
 }

@@ -45,6 +45,39 @@ fn a_two_phase_block_is_refused_by_name() {
     }
 }
 
+/// Streams phase `phase` of `t`'s plan through the C ABI: its digest (as the host writes
+/// it) and sample count, or the status that refused it.
+#[allow(unsafe_code)]
+fn stream(t: &rl_two_phase, phase: u32) -> Result<(String, u32), rl_status> {
+    let mut s = Box::new(rl_setpoints::ZEROED);
+    let mut sp = rl_setpoint::ZEROED;
+    let mut digest = reactionless::TrajectoryDigest::new();
+    let mut n = 0u32;
+    // SAFETY: `s` is writable storage of one rl_setpoints; `t` an initialised search.
+    unsafe {
+        let st = rl_two_phase_setpoints_init(&mut *s, t, phase);
+        if st != RL_OK {
+            return Err(st);
+        }
+        loop {
+            match rl_two_phase_setpoints_next(&mut *s, t, &mut sp) {
+                RL_OK => {}
+                RL_DONE => break,
+                e => return Err(e),
+            }
+            digest.push_sample(&reactionless::Sample {
+                step: n,
+                t: sp.t,
+                q: sp.q,
+                qd: sp.qd,
+            });
+            n += 1;
+        }
+        assert_eq!(rl_two_phase_setpoints_next(&mut *s, t, &mut sp), RL_DONE);
+    }
+    Ok((format!("{:#018x}", digest.value()), n))
+}
+
 fn field<'a>(line: &'a [(String, String)], key: &str) -> &'a str {
     &line.iter().find(|(k, _)| k == key).unwrap().1
 }
@@ -53,7 +86,9 @@ fn field<'a>(line: &'a [(String, String)], key: &str) -> &'a str {
 /// host plans for the same task file (host-sim's two-phase path, as `host-sim target`
 /// compares with the flight image), bit for bit: `q_s`, η, `f`, how the search ended, its
 /// starts, the inverse's `f`, the base disturbance, phase 1's steps, the wheels' demand and
-/// the base shift. A target beyond reach ends `RL_BEYOND_REACH` before any rollout.
+/// the base shift; then both phases streamed, each the host's samples bit for bit (phase
+/// 1's digest as phase1.csv's, phase 2's as the host's rollout from `q_s`). A target beyond
+/// reach ends `RL_BEYOND_REACH` before any rollout, and has no phase 2 to stream.
 /// Verifies RL-FFI-011.
 #[test]
 #[allow(unsafe_code)]
@@ -121,6 +156,21 @@ fn a_two_phase_block_is_planned_by_rl_two_phase() {
             assert_eq!(bits(*v), field(line, k), "{task}: {k}");
         }
         assert_eq!(plan.converged, u32::from(want == RL_CONVERGED));
+        // Both phases streamed: phase 1's samples are phase1.csv's (the host's digest), and
+        // phase 2's are the rollout of η from q_s (the host's trajectory digest).
+        let (digest1, samples1) = stream(&t, 1).unwrap();
+        assert_eq!(digest1, field(line, "digest1"), "{task}: phase 1 digest");
+        assert_eq!(samples1.to_string(), field(line, "samples1"));
+        if want == RL_CONVERGED {
+            let (digest2, samples2) = stream(&t, 2).unwrap();
+            assert_eq!(
+                digest2, host.outputs.trajectory_digest,
+                "{task}: phase 2 digest"
+            );
+            assert_eq!(samples2, host.outputs.trajectory_samples);
+        } else {
+            assert_eq!(stream(&t, 2), Err(RL_E_NO_PLAN), "{task}: no phase 2");
+        }
         // Finished is final: the same plan again, at once.
         let again = plan;
         // SAFETY: as above.
@@ -132,8 +182,9 @@ fn a_two_phase_block_is_planned_by_rl_two_phase() {
 }
 
 /// `rl_two_phase` checks what it is given: NULLs, another ABI version or size, a
-/// single-phase block (named), a corrupt block, stepping with no task; none panics, and a
-/// failed load leaves no task.
+/// single-phase block (named), a corrupt block, stepping with no task, streaming before the
+/// plan is finished or a phase other than 1 and 2, a two-phase stream given to
+/// `rl_setpoints_next` or to another search; none panics, and a failed load leaves no task.
 /// Verifies RL-FFI-011.
 #[test]
 #[allow(unsafe_code)]
@@ -193,10 +244,64 @@ fn rl_two_phase_names_what_is_wrong() {
             RL_E_BLOCK_CRC
         );
         assert_eq!(rl_two_phase_step(&mut *t, 10, &mut plan), RL_E_NO_TASK);
-        for s in [RL_BEYOND_REACH, RL_PRESHAPE_BOUNDS, RL_E_ONE_PHASE] {
+        // Streams: none before the plan is finished; phases 1 and 2 only.
+        let mut s: Box<rl_setpoints> = Box::new(rl_setpoints::ZEROED);
+        let mut sp = rl_setpoint::ZEROED;
+        assert_eq!(rl_two_phase_setpoints_init(&mut *s, &*t, 1), RL_E_NO_TASK);
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, one.as_ptr(), one.len()),
+            RL_E_ONE_PHASE
+        );
+        two[last] ^= 1;
+        assert_eq!(
+            rl_two_phase_load_block(&mut *t, two.as_ptr(), two.len()),
+            RL_OK
+        );
+        assert_eq!(rl_two_phase_setpoints_init(&mut *s, &*t, 1), RL_E_NO_PLAN);
+        while rl_two_phase_step(&mut *t, 1000, &mut plan) == RL_RUNNING {}
+        assert_eq!(rl_two_phase_setpoints_init(&mut *s, &*t, 3), RL_E_PHASE);
+        assert_eq!(rl_two_phase_setpoints_init(&mut *s, &*t, 0), RL_E_PHASE);
+        assert_eq!(
+            rl_two_phase_setpoints_init(core::ptr::null_mut(), &*t, 1),
+            RL_E_NULL
+        );
+        assert_eq!(rl_two_phase_setpoints_init(&mut *s, &*t, 2), RL_OK);
+        assert_eq!(
+            rl_two_phase_setpoints_next(&mut *s, &*t, core::ptr::null_mut()),
+            RL_E_NULL
+        );
+        // A two-phase stream is not a planner's, nor the stream of another search.
+        let mut p = Box::new(rl_planner::ZEROED);
+        assert_eq!(
+            rl_planner_init(&mut *p, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
+            RL_OK
+        );
+        assert_eq!(
+            rl_planner_load_block(&mut *p, one.as_ptr(), one.len()),
+            RL_OK
+        );
+        assert_eq!(rl_setpoints_next(&mut *s, &*p, &mut sp), RL_E_MISMATCH);
+        let mut other = Box::new(rl_two_phase::ZEROED);
+        assert_eq!(rl_two_phase_init(&mut *other, RL_ABI_VERSION, size), RL_OK);
+        let far = block("tests/tasks/g/chaser7/moved5cm/task_002.toml");
+        assert_eq!(
+            rl_two_phase_load_block(&mut *other, far.as_ptr(), far.len()),
+            RL_OK
+        );
+        assert_eq!(
+            rl_two_phase_setpoints_next(&mut *s, &*other, &mut sp),
+            RL_E_MISMATCH
+        );
+        assert_eq!(rl_two_phase_setpoints_next(&mut *s, &*t, &mut sp), RL_OK);
+        for s in [
+            RL_BEYOND_REACH,
+            RL_PRESHAPE_BOUNDS,
+            RL_E_ONE_PHASE,
+            RL_E_PHASE,
+        ] {
             let name = core::ffi::CStr::from_ptr(rl_status_str(s));
             assert!(!name.to_str().unwrap().starts_with("unknown"), "{s}");
         }
     }
-    assert_eq!(plan, rl_two_phase_plan::ZEROED);
+    assert_eq!(plan.converged, 1);
 }

@@ -78,6 +78,10 @@ const LAMBDA_MIN: f64 = 1e-15;
 const IK_STARTS: u32 = 64;
 /// Iterations per kinematic-inverse start.
 const IK_ITERATIONS: u32 = 200;
+/// Evaluations after which a kinematic-inverse start ends at its last accepted point: the
+/// bound of its loop (its LM ends on damping, failure or an exact solution long before; a
+/// start of the reference robot takes about 230).
+const IK_MAX_EVALUATIONS: u32 = 100_000;
 /// Directions per screening batch.
 const SCREEN: usize = 8;
 /// LM starts taken from each batch, the shortest pre-shapes first.
@@ -383,8 +387,14 @@ enum At<const N: usize, const K: usize> {
 ///   LM step;
 /// - accepting a start that met the goal: phase 1 fitted to the wheels' bounds
 ///   ([`fit_preshape`]: at most 5 evaluations of its demand on the written samples), then
-///   phase 2 on the truth model (one rollout with 10 sub-steps per step), the largest unit;
-/// - finishing: phase 1 of the reported plan fitted as above.
+///   phase 2 on the truth model (one rollout with 10 sub-steps per step), the largest unit.
+///
+/// The unit that ends the search also fits the reported plan's phase 1 when it did not
+/// converge (as above, without the truth model) and moves phase 2's task to `q_s`
+/// ([`TwoPhaseSearch::phase2_task`]). A kinematic-inverse start ends after at most
+/// 100,000 evaluations. The rollouts spent can pass
+/// [`TwoPhaseConfig::max_rollouts`] by at most 2: a start taken right after a screening
+/// batch spent the budget evaluates its first point, and accepts it if it met the goal.
 ///
 /// Stepping with budget 1 per call gives the same bits as one call with an unlimited
 /// budget: the state carried between calls is exactly the loop state, and every random
@@ -411,6 +421,9 @@ pub struct TwoPhaseSearch<const N: usize, const K: usize> {
     refused_starts: u32,
     at: At<N, K>,
     spent: u64,
+    /// Once finished: whether phase 2's task was moved to the plan's `q_s` (then
+    /// [`TwoPhaseSearch::phase2_task`] is it), or could not be.
+    phase2_ready: Option<bool>,
 }
 
 impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
@@ -433,6 +446,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         refused_starts: 0,
         at: At::Idle,
         spent: 0,
+        phase2_ready: None,
     };
 
     /// Starts a search of `task` with `config` and the planner's stream of `seed`, in place
@@ -463,6 +477,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         self.config = *config;
         self.stream = Stream::new(seed);
         self.spent = 0;
+        self.phase2_ready = None;
         let q0 = *self.task.start();
         self.best = Best::new(q0);
         self.inverse = Inverse::new(&self.task, &q0, IK_STARTS);
@@ -503,6 +518,11 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
             self.spent += 1;
             if let Err(e) = self.unit() {
                 self.at = At::Failed(e);
+            }
+            if let (At::Done(p), None) = (&self.at, self.phase2_ready) {
+                // In the unit that finished: phase 2's task from the plan's start, for
+                // streaming (the plan's bits do not depend on it).
+                self.phase2_ready = Some(self.scratch.phase2.move_start(&p.q_s).is_ok());
             }
         }
         match self.at {
@@ -549,6 +569,27 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         &self.task
     }
 
+    /// The finished plan (`None` while running, idle or failed).
+    #[must_use]
+    pub fn plan(&self) -> Option<&TwoPhasePlan<N, K>> {
+        match &self.at {
+            At::Done(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// Phase 2's task once the search has finished: the task from the plan's `q_s` (the
+    /// base moved by phase 1, the CoM kept), against which phase 2's setpoints are
+    /// streamed ([`crate::Setpoints`] of the plan's η). `None` while running, or if that
+    /// start lost rank.
+    #[must_use]
+    pub fn phase2_task(&self) -> Option<&Task<N, K>> {
+        match (&self.at, self.phase2_ready) {
+            (At::Done(_), Some(true)) => Some(&self.scratch.phase2),
+            _ => None,
+        }
+    }
+
     /// One unit. Each state's work is a function of its own, so that the stack holds only
     /// the deepest one's frame (the truth-model rollout of [`At::Accept`]).
     fn unit(&mut self) -> Result<(), Error> {
@@ -589,7 +630,11 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         let TwoPhaseScratch { phase2, work, pool } = scratch;
         match ask {
             Ask::Eval => {
-                *ask = run.tell(work, ik_eval(task, c.margin, run.point()), 0);
+                *ask = if inverse.count() {
+                    run.tell(work, ik_eval(task, c.margin, run.point()), 0)
+                } else {
+                    run.stop()
+                };
                 return;
             }
             Ask::Done(_) => {
@@ -678,7 +723,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
             *s = ([0.0; MAX_Z], f64::INFINITY);
         }
         let rolled = if best.rollouts < c.max_rollouts {
-            best.rollouts += 1;
+            best.rollouts = best.rollouts.saturating_add(1);
             task.rollout(&to_eta::<K>(x, 0), &mut ()).ok()
         } else {
             None
@@ -747,7 +792,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         let TwoPhaseScratch { phase2, work, .. } = scratch;
         match ask {
             Ask::Eval => {
-                best.rollouts += 1;
+                best.rollouts = best.rollouts.saturating_add(1);
                 let reply = evaluate(task, phase2, c, run.point());
                 *ask = run.tell(work, reply, best.rollouts);
             }
@@ -869,7 +914,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
         if self.rollouts >= c.max_rollouts {
             return false;
         }
-        self.rollouts += 1;
+        self.rollouts = self.rollouts.saturating_add(1);
         let Some(o) = phase2_rollout(task, phase2, z) else {
             return false;
         };
@@ -897,7 +942,7 @@ impl<const N: usize, const K: usize> Best<N, K> {
         }
         // Phase 2 on the truth model: the plan is accepted only if the base stays put.
         let qc = clamped(task.robot(), &qs);
-        self.rollouts += 1;
+        self.rollouts = self.rollouts.saturating_add(1);
         if phase2.move_start(&qc).is_err() {
             return Ok(false);
         }
@@ -1168,11 +1213,16 @@ pub fn inverse<const N: usize, const K: usize>(
     let mut work = LmWork::ZERO;
     let mut inverse = Inverse::new(task, first, starts);
     let (mut run, mut ask) = inverse.begin(task, margin, stream);
-    // Every start ends (its LM's damping grows past LAMBDA_MAX unless it keeps improving),
-    // and the starts are at most IK_STARTS.
+    // Every start ends within IK_MAX_EVALUATIONS, and the starts are at most IK_STARTS.
     loop {
         match ask {
-            Ask::Eval => ask = run.tell(&mut work, ik_eval(task, margin, run.point()), 0),
+            Ask::Eval => {
+                ask = if inverse.count() {
+                    run.tell(&mut work, ik_eval(task, margin, run.point()), 0)
+                } else {
+                    run.stop()
+                };
+            }
             Ask::Done(_) => {
                 if !inverse.end_start(task, run.point()) {
                     return inverse.best;
@@ -1188,6 +1238,8 @@ pub fn inverse<const N: usize, const K: usize>(
 struct Inverse<const N: usize> {
     /// The current start, of `starts` (at least 1).
     s: u32,
+    /// Evaluations of the current start.
+    evaluations: u32,
     starts: u32,
     /// The first start.
     first: [f64; N],
@@ -1198,6 +1250,7 @@ struct Inverse<const N: usize> {
 impl<const N: usize> Inverse<N> {
     const IDLE: Self = Self {
         s: 0,
+        evaluations: 0,
         starts: 1,
         first: [0.0; N],
         best: ([0.0; N], f64::INFINITY),
@@ -1208,6 +1261,7 @@ impl<const N: usize> Inverse<N> {
     fn new<const K: usize>(task: &Task<N, K>, first: &[f64; N], starts: u32) -> Self {
         Self {
             s: 0,
+            evaluations: 0,
             starts: starts.clamp(1, IK_STARTS),
             first: *first,
             best: (*task.start(), f64::INFINITY),
@@ -1217,11 +1271,12 @@ impl<const N: usize> Inverse<N> {
     /// The LM run of the current start: `first`, or a uniform configuration within the
     /// limits by the margin (N draws of `stream`).
     fn begin<const K: usize>(
-        &self,
+        &mut self,
         task: &Task<N, K>,
         margin: f64,
         stream: &mut Stream,
     ) -> (LmRun, Ask) {
+        self.evaluations = 0;
         let robot = task.robot();
         let (lo, hi) = (robot.lower(), robot.upper());
         let mut z = [0.0; MAX_Z];
@@ -1242,6 +1297,13 @@ impl<const N: usize> Inverse<N> {
             broyden: false,
         };
         LmRun::begin(lm, &z, IK_ITERATIONS * (N as u32 + 2))
+    }
+
+    /// Counts an evaluation of the current start; whether it is within
+    /// [`IK_MAX_EVALUATIONS`].
+    fn count(&mut self) -> bool {
+        self.evaluations = self.evaluations.saturating_add(1);
+        self.evaluations <= IK_MAX_EVALUATIONS
     }
 
     /// The current start ended at `z`: keeps it if it is the best; whether another start
@@ -1385,6 +1447,11 @@ impl LmRun {
             Wait::Trial(trial, _, _) => trial,
             Wait::First | Wait::Over => &self.z,
         }
+    }
+
+    /// Ends the run at its last accepted point, without the evaluation it asked for.
+    fn stop(&mut self) -> Ask {
+        self.done(false)
     }
 
     /// Ends the run at `z`.

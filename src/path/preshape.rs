@@ -3,7 +3,8 @@
 //! control system holds the base attitude.
 //!
 //! Owns [`Preshape`] (the path, its time law and duration), [`PreshapeLimits`] (what it
-//! keeps) and [`Demand`] (what the attitude control absorbs).
+//! keeps), [`Demand`] (what the attitude control absorbs) and [`PreshapeSetpoints`] (its
+//! written samples, one per call, for streaming).
 //!
 //! **Path and time law.** The path is the straight line `q(t) = q₀ + Δ·s(t/T)`,
 //! `Δ = q_s − q₀`, flown with a trapezoidal rate profile of blend fraction `b ∈ (0, ½]`:
@@ -71,6 +72,30 @@ pub struct Preshape<const N: usize> {
     blend: f64,
     steps: u32,
     dt: f64,
+}
+
+/// Phase 1's setpoints `(t, q, q̇)`, one per call, exactly the samples of
+/// [`Preshape::write`] (so their digest is `phase1.csv`'s and the flight image's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PreshapeSetpoints<const N: usize> {
+    preshape: Preshape<N>,
+    /// The next sample's index (`S₁ + 1` once the last was produced).
+    next: u32,
+}
+
+impl<const N: usize> Iterator for PreshapeSetpoints<N> {
+    type Item = Sample<N>;
+
+    /// The next setpoint (`t` from 0 to phase 1's duration in steps of `dt`), or `None`
+    /// after the last.
+    fn next(&mut self) -> Option<Sample<N>> {
+        if self.next > self.preshape.steps {
+            return None;
+        }
+        let s = self.preshape.setpoint(self.next);
+        self.next = self.next.saturating_add(1);
+        Some(s)
+    }
 }
 
 /// What phase 1 demands of the attitude control, on the written samples (spec §15).
@@ -231,13 +256,28 @@ impl<const N: usize> Preshape<N> {
     /// `q`, `q̇`): how `phase1.csv` and the flight image's phase-1 digest are made.
     pub fn write<S: Sink<N>>(&self, sink: &mut S) {
         for j in 0..=self.steps {
-            let (q, qd) = self.sample(j);
-            sink.sample(&Sample {
-                step: j,
-                t: f64::from(j) * self.dt,
-                q,
-                qd,
-            });
+            sink.sample(&self.setpoint(j));
+        }
+    }
+
+    /// Sample `j` as [`Preshape::write`] writes it (`t = j·dt`).
+    fn setpoint(&self, j: u32) -> Sample<N> {
+        let (q, qd) = self.sample(j);
+        Sample {
+            step: j,
+            t: f64::from(j) * self.dt,
+            q,
+            qd,
+        }
+    }
+
+    /// The samples of [`Preshape::write`], one per call: how
+    /// flight software streams phase 1 to the joint controllers (an [`Iterator`]).
+    #[must_use]
+    pub fn setpoints(&self) -> PreshapeSetpoints<N> {
+        PreshapeSetpoints {
+            preshape: *self,
+            next: 0,
         }
     }
 

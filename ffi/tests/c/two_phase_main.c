@@ -1,5 +1,6 @@
 /* A two-phase block through the C ABI from C: plans it with rl_two_phase in frames of a
- * few units and prints what a flight app would log, bit patterns in hex.
+ * few units, streams both phases, and prints what a flight app would log, bit patterns
+ * and trajectory digests in hex.
  * Usage: two_phase_test BLOCK */
 #include <stdio.h>
 #include <string.h>
@@ -8,6 +9,48 @@
 
 static uint8_t block[4096];
 static rl_two_phase search;
+static rl_setpoints stream;
+
+/* FNV-1a-64 over the little-endian bytes of v's bit pattern (the trajectory digest). */
+static uint64_t fold(uint64_t h, double v) {
+    uint64_t b;
+    int i;
+    memcpy(&b, &v, sizeof b);
+    for (i = 0; i < 8; i++) {
+        h = (h ^ ((b >> (8 * i)) & 0xffu)) * 0x00000100000001b3ull;
+    }
+    return h;
+}
+
+/* Streams phase `phase` and prints its digest and sample count; 0 on success. */
+static int stream_phase(unsigned phase) {
+    rl_setpoint sp;
+    uint64_t h = 0xcbf29ce484222325ull;
+    unsigned n = 0;
+    int j;
+    rl_status s = rl_two_phase_setpoints_init(&stream, &search, phase);
+    if (s != RL_OK) {
+        printf("STREAM%u %s\n", phase, rl_status_str(s));
+        return 1;
+    }
+    while ((s = rl_two_phase_setpoints_next(&stream, &search, &sp)) == RL_OK) {
+        h = fold(h, sp.t);
+        for (j = 0; j < RL_JOINTS; j++) {
+            h = fold(h, sp.q[j]);
+        }
+        for (j = 0; j < RL_JOINTS; j++) {
+            h = fold(h, sp.qd[j]);
+        }
+        n++;
+    }
+    if (s != RL_DONE) {
+        printf("STREAM%u %s\n", phase, rl_status_str(s));
+        return 1;
+    }
+    printf("DIGEST%u 0x%016llx\n", phase, (unsigned long long)h);
+    printf("SAMPLES%u %u\n", phase, n);
+    return 0;
+}
 
 static void put_bits(const char *key, double v) {
     uint64_t b;
@@ -73,5 +116,5 @@ int main(int argc, char **argv) {
         sprintf(key, "ETA%d", i);
         put_bits(key, plan.eta[i]);
     }
-    return 0;
+    return stream_phase(1) || stream_phase(2);
 }

@@ -464,8 +464,10 @@ impl rl_setpoints {
     }
 }
 
-fn load_error(e: Error) -> rl_status {
+/// The status of a task block that did not load.
+pub(crate) fn load_error(e: Error) -> rl_status {
     match e {
+        Error::NotTwoPhase => RL_E_ONE_PHASE,
         Error::Block(BlockFault::Magic) => RL_E_BLOCK_MAGIC,
         Error::Block(BlockFault::JointCount) => RL_E_BLOCK_JOINTS,
         Error::Block(BlockFault::Length | BlockFault::Truncated) => RL_E_BLOCK_LENGTH,

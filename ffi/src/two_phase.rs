@@ -22,15 +22,14 @@
 use core::mem::{align_of, size_of};
 use reactionless::block::decode;
 use reactionless::twophase::{TwoPhasePlan, TwoPhaseSearch, TwoPhaseStatus, TwoPhaseStop};
-use reactionless::{BlockFault, Error, PreshapeSetpoints, Sample};
+use reactionless::{Error, PreshapeSetpoints, Sample};
 
 use crate::{
     FlightSetpoints, RL_ABI_VERSION, RL_BEYOND_REACH, RL_CONVERGED, RL_DONE, RL_E_ABI_VERSION,
-    RL_E_BLOCK_CRC, RL_E_BLOCK_FIELD, RL_E_BLOCK_JOINTS, RL_E_BLOCK_LENGTH, RL_E_BLOCK_MAGIC,
-    RL_E_INVALID_TASK, RL_E_MISMATCH, RL_E_NO_PLAN, RL_E_NO_TASK, RL_E_NULL, RL_E_ONE_PHASE,
-    RL_E_PHASE, RL_E_PLANNING, RL_E_SIZE, RL_E_STREAM, RL_E_UNINITIALIZED, RL_ETA_LEN,
-    RL_EXHAUSTED, RL_JOINTS, RL_OK, RL_PRESHAPE_BOUNDS, RL_RUNNING, RL_SETPOINTS_WORDS, checkpoint,
-    rl_setpoint, rl_setpoints, rl_status,
+    RL_E_MISMATCH, RL_E_NO_PLAN, RL_E_NO_TASK, RL_E_NULL, RL_E_PHASE, RL_E_PLANNING, RL_E_SIZE,
+    RL_E_STREAM, RL_E_UNINITIALIZED, RL_ETA_LEN, RL_EXHAUSTED, RL_JOINTS, RL_OK,
+    RL_PRESHAPE_BOUNDS, RL_RUNNING, RL_SETPOINTS_WORDS, checkpoint, load_error, rl_setpoint,
+    rl_setpoints, rl_status,
 };
 
 /// The flight two-phase search: 7 joints, null-space dimension 4.
@@ -236,18 +235,6 @@ impl rl_two_phase {
             Err(Error::NotInitialized) => RL_E_NO_TASK,
             Err(_) => RL_E_PLANNING,
         }
-    }
-}
-
-fn load_error(e: Error) -> rl_status {
-    match e {
-        Error::NotTwoPhase => RL_E_ONE_PHASE,
-        Error::Block(BlockFault::Magic) => RL_E_BLOCK_MAGIC,
-        Error::Block(BlockFault::JointCount) => RL_E_BLOCK_JOINTS,
-        Error::Block(BlockFault::Length | BlockFault::Truncated) => RL_E_BLOCK_LENGTH,
-        Error::Block(BlockFault::Checksum) => RL_E_BLOCK_CRC,
-        Error::Block(BlockFault::Field) => RL_E_BLOCK_FIELD,
-        _ => RL_E_INVALID_TASK,
     }
 }
 

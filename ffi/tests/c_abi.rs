@@ -62,6 +62,30 @@ fn run(cmd: &mut Command) -> String {
     text
 }
 
+/// Compiles `sources` (in ffi/tests/c) as C99 with every warning an error, against the
+/// checked-in header, and links them with the staticlib into `exe`.
+fn compile_c(sources: &[&str], exe: &Path) {
+    let c = root().join("ffi/tests/c");
+    let mut gcc = Command::new("gcc");
+    gcc.args([
+        "-std=c99",
+        "-O2",
+        "-Wall",
+        "-Wextra",
+        "-Wpedantic",
+        "-Werror",
+    ])
+    .arg("-I")
+    .arg(root().join("ffi/include"));
+    for s in sources {
+        gcc.arg(c.join(s));
+    }
+    gcc.arg(staticlib())
+        .args(["-lpthread", "-ldl", "-lm", "-o"])
+        .arg(exe);
+    run(&mut gcc);
+}
+
 /// Lines `KEY value` (and `ETA i value`) of the C program's output.
 fn parse(text: &str) -> BTreeMap<String, String> {
     text.lines()
@@ -82,24 +106,8 @@ fn c_program_matches_the_record_across_a_checkpoint() {
     let (block, other) = (dir.join("paper.block"), dir.join("other.block"));
     block_of("spec/tasks/paper.toml", &block);
     block_of("tests/records/tasks/chaser7/task_002.toml", &other);
-    let c = root().join("ffi/tests/c");
     let exe = dir.join("abi_test");
-    run(Command::new("gcc")
-        .args([
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Wpedantic",
-            "-Werror",
-        ])
-        .arg("-I")
-        .arg(root().join("ffi/include"))
-        .arg(c.join("abi_test.c"))
-        .arg(c.join("host_main.c"))
-        .arg(staticlib())
-        .args(["-lpthread", "-ldl", "-lm", "-o"])
-        .arg(&exe));
+    compile_c(&["abi_test.c", "host_main.c"], &exe);
     let text = run(Command::new(&exe).arg(&block).arg(&other));
     println!("{text}");
     let got = parse(&text);
@@ -163,21 +171,7 @@ fn c_program_plans_a_two_phase_block() {
     let block = dir.join("two_phase.block");
     block_of(task, &block);
     let exe = dir.join("two_phase_test");
-    run(Command::new("gcc")
-        .args([
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Wpedantic",
-            "-Werror",
-        ])
-        .arg("-I")
-        .arg(root().join("ffi/include"))
-        .arg(root().join("ffi/tests/c/two_phase_main.c"))
-        .arg(staticlib())
-        .args(["-lpthread", "-ldl", "-lm", "-o"])
-        .arg(&exe));
+    compile_c(&["two_phase_main.c"], &exe);
     let text = run(Command::new(&exe).arg(&block));
     println!("{text}");
     let got = parse(&text);

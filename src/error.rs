@@ -104,6 +104,8 @@ pub enum Param {
     StandoffAngle,
     /// Largest acceptable base rotation of a plan on the truth model (rad).
     BaseDisturbance,
+    /// Number of joints N of the robot (a capacity of the two-phase search).
+    Joints,
 }
 
 impl Param {
@@ -161,6 +163,7 @@ impl Param {
             | Param::UpperLimit(_)
             | Param::VelocityLimit(_)
             | Param::EndEffector
+            | Param::Joints
             | Param::Eta(_) => return None,
         })
     }
@@ -376,6 +379,7 @@ impl fmt::Display for Param {
             Param::StandoffDistance => f.write_str("standoff distance"),
             Param::StandoffAngle => f.write_str("standoff angle"),
             Param::BaseDisturbance => f.write_str("base disturbance limit"),
+            Param::Joints => f.write_str("number of joints"),
         }
     }
 }

@@ -3,6 +3,8 @@
 //! reaches (the single-phase planner misses it by decimetres).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 
+mod common;
+
 use reactionless::reference::paper_task;
 use reactionless::twophase::{TwoPhaseConfig, TwoPhaseStop, plan};
 use reactionless::{IDENTITY_WXYZ, Pose, Preshape, Task, TruthModel};
@@ -267,4 +269,44 @@ fn an_idle_search_is_a_typed_error() {
     };
     assert!(search.reset(&task, &bad, 1).is_err());
     assert_eq!(search.step(10), Err(reactionless::Error::NotInitialized));
+}
+
+/// A robot beyond the search's fixed capacity (13 joints: 13 + 2·10 unknowns, 21
+/// residuals) is refused with a typed error naming the joint count, not planned on a
+/// truncated state.
+/// Verifies RL-TWO-006.
+#[test]
+fn a_robot_beyond_capacity_is_a_typed_error() {
+    use reactionless::twophase::{MAX_JOINTS, TwoPhaseSearch};
+    use reactionless::{Error, Motion, Param, Robot};
+    let mut rng = common::rng(13);
+    let desc = common::random_robot::<13>(&mut rng);
+    let q0 = common::random_q(&mut rng, &desc);
+    let robot = Robot::new(&desc).unwrap();
+    let task: Task<13, 10> = {
+        let target = Task::<13, 10>::new(
+            robot.clone(),
+            q0,
+            Pose {
+                position: [1.0, 0.0, 0.0],
+                quat_wxyz: IDENTITY_WXYZ,
+            },
+            Motion::new(30.0, 0.01, 1).unwrap(),
+        )
+        .unwrap()
+        .end_pose(&q0, IDENTITY_WXYZ);
+        Task::new(robot, q0, target, Motion::new(30.0, 0.01, 1).unwrap()).unwrap()
+    };
+    let want = Err(Error::CapacityExceeded {
+        param: Param::Joints,
+        requested: 13,
+        capacity: MAX_JOINTS as u32,
+    });
+    assert_eq!(
+        plan(&task, &TwoPhaseConfig::reference(), 1).map(|_| ()),
+        want
+    );
+    let mut search = Box::new(TwoPhaseSearch::<13, 10>::IDLE);
+    assert_eq!(search.reset(&task, &TwoPhaseConfig::reference(), 1), want);
+    assert_eq!(search.step(10).map(|_| ()), Err(Error::NotInitialized));
 }

@@ -59,15 +59,17 @@ use crate::model::Robot;
 use crate::preshape::{Demand, Preshape, PreshapeLimits};
 use crate::random::Stream;
 use crate::retime::check_positive;
-use crate::rollout::Outcome;
+use crate::rollout::{Outcome, Progress, Rollout, Sample};
 use crate::search::refine::solve_spd_in_place;
 use crate::task::Task;
-use crate::truth::{TRUTH_SUBSTEPS, TruthModel};
+use crate::truth::{TRUTH_SUBSTEPS, TruthState};
 
 /// Largest number of unknowns `N + 2K` (12 joints, K ≤ 9).
 pub const MAX_Z: usize = 30;
 /// Largest residual length `6 + N + 2`.
 pub const MAX_R: usize = 20;
+/// Most joints the two-phase search holds (`N + 2K ≤ MAX_Z` and `6 + N + 2 ≤ MAX_R`).
+pub const MAX_JOINTS: usize = MAX_R - 8;
 /// A kinematic inverse worse than this `f` (m and rad) means the target is out of reach.
 pub const REACH_TOLERANCE: f64 = 1e-6;
 /// Largest damping before a start counts as stalled.
@@ -93,6 +95,11 @@ const WHEEL_MARGIN: f64 = 1.05;
 const REFUSED_STARTS: u32 = 24;
 /// Slow-downs of phase 1 tried to meet the wheels' bounds.
 const STRETCHES: u32 = 4;
+/// Integration steps of phase 2 flown on the truth model per unit, when a start that met
+/// the goal is tested: each step is one planner-model step and [`TRUTH_SUBSTEPS`]
+/// sub-steps of the truth model (about 63,000 instructions on the Cortex-M7), so a unit
+/// costs about what one planner-model rollout of the reference task does (13.8 M).
+pub const TRUTH_STEPS_PER_UNIT: u32 = 200;
 
 type Col = [f64; MAX_Z];
 type Res = [f64; MAX_R];
@@ -300,8 +307,8 @@ pub fn plan<const N: usize, const K: usize>(
 /// stepped with an unlimited budget until it finishes.
 ///
 /// # Errors
-/// Bad settings ([`TwoPhaseConfig::validate`]), or a rollout error from the task's own
-/// start (a rank-deficient start).
+/// Bad settings ([`TwoPhaseConfig::validate`]), a robot beyond the search's capacity
+/// ([`MAX_JOINTS`]), or a rollout error from the task's own start (a rank-deficient start).
 pub fn plan_in<const N: usize, const K: usize>(
     search: &mut TwoPhaseSearch<N, K>,
     task: &Task<N, K>,
@@ -368,8 +375,10 @@ enum At<const N: usize, const K: usize> {
     Search,
     /// The start ended without meeting the goal at `point`.
     Consider,
-    /// The start met the goal at `point`: fit phase 1, fly phase 2 on the truth model.
+    /// The start met the goal at `point`: fit phase 1, then fly phase 2 on the truth model.
     Accept,
+    /// Phase 2 of the start at `point` is being flown on the truth model.
+    Fly(Fly<N, K>),
     Done(TwoPhasePlan<N, K>),
     Failed(Error),
 }
@@ -386,8 +395,10 @@ enum At<const N: usize, const K: usize> {
 ///   phase 2 of an LM point from its `q_s`, with [`Preshape::estimate`]'s 33 points) and its
 ///   LM step;
 /// - accepting a start that met the goal: phase 1 fitted to the wheels' bounds
-///   ([`fit_preshape`]: at most 5 evaluations of its demand on the written samples), then
-///   phase 2 on the truth model (one rollout with 10 sub-steps per step), the largest unit.
+///   ([`fit_preshape`]: at most 5 evaluations of its demand on the written samples);
+/// - flying that start's phase 2 on the truth model: [`TRUTH_STEPS_PER_UNIT`] integration
+///   steps, each with [`TRUTH_SUBSTEPS`] truth-model sub-steps (the whole rollout counts
+///   as one of the budget's rollouts).
 ///
 /// The unit that ends the search also fits the reported plan's phase 1 when it did not
 /// converge (as above, without the truth model) and moves phase 2's task to `q_s`
@@ -400,16 +411,16 @@ enum At<const N: usize, const K: usize> {
 /// budget: the state carried between calls is exactly the loop state, and every random
 /// draw happens at a fixed point of the sequence. The search owns a copy of its task.
 /// Size: `TwoPhaseSearch<7, 4>`, see `tests/sizes.rs`.
+#[repr(C)]
 pub struct TwoPhaseSearch<const N: usize, const K: usize> {
-    task: Task<N, K>,
-    config: TwoPhaseConfig,
-    scratch: TwoPhaseScratch<N, K>,
-    stream: Stream,
-    best: Best<N, K>,
+    // In this order (`repr(C)`): the state every unit touches first, the large and the
+    // rarely touched after, so that the hot fields keep short offsets on the flight image
+    // (Thumb-2 loads reach 4,095 bytes from a base register).
     /// The LM run in progress (the inverse's or a start's) and what it asks for.
     run: LmRun,
     ask: Ask,
     inverse: Inverse<N>,
+    stream: Stream,
     /// The screening slot, its direction and its rollout's end (the inverse's first start).
     slot: usize,
     x: Col,
@@ -417,13 +428,17 @@ pub struct TwoPhaseSearch<const N: usize, const K: usize> {
     point: Col,
     /// The pool's next start.
     next: usize,
-    refused: bool,
     refused_starts: u32,
-    at: At<N, K>,
-    spent: u64,
+    refused: bool,
     /// Once finished: whether phase 2's task was moved to the plan's `q_s` (then
     /// [`TwoPhaseSearch::phase2_task`] is it), or could not be.
     phase2_ready: Option<bool>,
+    spent: u64,
+    config: TwoPhaseConfig,
+    task: Task<N, K>,
+    scratch: TwoPhaseScratch<N, K>,
+    best: Best<N, K>,
+    at: At<N, K>,
 }
 
 impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
@@ -453,7 +468,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
     /// (nothing task-sized passes through the stack); any earlier search is dropped.
     ///
     /// # Errors
-    /// Bad settings ([`TwoPhaseConfig::validate`]); the search is then idle.
+    /// As [`TwoPhaseSearch::restart`].
     pub fn reset(
         &mut self,
         task: &Task<N, K>,
@@ -470,10 +485,19 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
     /// software builds it in place), as [`TwoPhaseSearch::reset`].
     ///
     /// # Errors
-    /// Bad settings ([`TwoPhaseConfig::validate`]); the search is then idle.
+    /// Bad settings ([`TwoPhaseConfig::validate`]), or a robot of more than
+    /// [`MAX_JOINTS`] joints ([`Error::CapacityExceeded`] naming [`Param::Joints`]); the
+    /// search is then idle.
     pub fn restart(&mut self, config: &TwoPhaseConfig, seed: u64) -> Result<(), Error> {
         self.at = At::Idle;
         config.validate()?;
+        if N > MAX_JOINTS || N + 2 * K > MAX_Z {
+            return Err(Error::CapacityExceeded {
+                param: Param::Joints,
+                requested: N.min(u32::MAX as usize) as u32,
+                capacity: MAX_JOINTS as u32,
+            });
+        }
         self.config = *config;
         self.stream = Stream::new(seed);
         self.spent = 0;
@@ -540,7 +564,9 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
             At::Idle => TwoPhaseStage::Idle,
             At::Reach => TwoPhaseStage::Reach,
             At::Screen | At::ScreenInverse => TwoPhaseStage::Screen,
-            At::Head | At::Pick | At::Search | At::Consider | At::Accept => TwoPhaseStage::Search,
+            At::Head | At::Pick | At::Search | At::Consider | At::Accept | At::Fly(_) => {
+                TwoPhaseStage::Search
+            }
             At::Done(_) | At::Failed(_) => TwoPhaseStage::Done,
         }
     }
@@ -591,7 +617,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
     }
 
     /// One unit. Each state's work is a function of its own, so that the stack holds only
-    /// the deepest one's frame (the truth-model rollout of [`At::Accept`]).
+    /// the deepest one's frame (fitting phase 1 in [`At::Accept`]).
     fn unit(&mut self) -> Result<(), Error> {
         match self.at {
             At::Reach | At::ScreenInverse => self.inverse_unit(),
@@ -601,6 +627,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
             At::Search => self.search_unit(),
             At::Consider => self.consider_unit(),
             At::Accept => return self.accept_unit(),
+            At::Fly(_) => self.fly_unit(),
             At::Idle | At::Done(_) | At::Failed(_) => {}
         }
         Ok(())
@@ -826,32 +853,69 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         }
     }
 
-    /// A start that met the goal: phase 1 within the wheels' bounds and phase 2 on the
-    /// truth model, or the next start.
+    /// A start that met the goal: phase 1 fitted within the wheels' bounds, then phase 2's
+    /// rollout from its `q_s` set up on the truth model ([`At::Fly`]), or the next start.
     #[inline(never)]
     fn accept_unit(&mut self) -> Result<(), Error> {
         let phase2 = &mut self.scratch.phase2;
-        if self
+        match self
             .best
             .accept(&self.task, phase2, &self.config, &self.point)?
         {
-            self.at = At::Done(self.best.finish(&self.task, &self.config));
-        } else {
-            self.refused = true;
-            self.refused_starts += 1;
-            self.at = if self.refused_starts >= REFUSED_STARTS {
-                At::Done(end_search(
-                    &mut self.best,
-                    self.refused,
-                    &self.task,
-                    &self.config,
-                ))
-            } else {
-                At::Head
-            };
+            Some(fly) => self.at = At::Fly(fly),
+            None => self.refuse(),
         }
         Ok(())
     }
+
+    /// [`TRUTH_STEPS_PER_UNIT`] steps of phase 2 on the truth model; once it ends, the plan
+    /// if the base stayed put, or the next start.
+    #[inline(never)]
+    fn fly_unit(&mut self) {
+        let At::Fly(fly) = &mut self.at else {
+            return;
+        };
+        let phase2 = &self.scratch.phase2;
+        let Fly { rollout, truth, .. } = fly;
+        let mut sink = |s: &Sample<N>| truth.push(phase2, &s.q, s.t);
+        let landed = match rollout.advance(phase2, TRUTH_STEPS_PER_UNIT, &mut sink) {
+            Ok(Progress::Running { .. }) => return,
+            Ok(Progress::Done(o)) => self.best.landed(&self.config, fly, &o, &self.point),
+            Ok(Progress::Abandoned { .. }) | Err(_) => false,
+        };
+        if landed {
+            self.at = At::Done(self.best.finish(&self.task, &self.config));
+        } else {
+            self.refuse();
+        }
+    }
+
+    /// A start that met the goal but was refused (phase 1's bounds, or the truth model):
+    /// the next start, or the end once [`REFUSED_STARTS`] were.
+    fn refuse(&mut self) {
+        self.refused = true;
+        self.refused_starts += 1;
+        self.at = if self.refused_starts >= REFUSED_STARTS {
+            At::Done(end_search(
+                &mut self.best,
+                self.refused,
+                &self.task,
+                &self.config,
+            ))
+        } else {
+            At::Head
+        };
+    }
+}
+
+/// Phase 2 of a start that met the goal, being flown on the truth model: the rollout from
+/// `q_s`, the truth model riding along, and the phase 1 fitted for that start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Fly<const N: usize, const K: usize> {
+    rollout: Rollout<N, K>,
+    truth: TruthState<N>,
+    preshape: Preshape<N>,
+    demand: Demand,
 }
 
 /// How the search ends when it gives up: on phase 1's bounds if any start ended there.
@@ -927,41 +991,54 @@ impl<const N: usize, const K: usize> Best<N, K> {
         phase1_duration(task, c, &q_of::<N>(z)) > c.max_duration
     }
 
-    /// A converged `z`: fits phase 1 to the wheels' bounds; `Ok(true)` if it fits.
+    /// A converged `z`: fits phase 1 to the wheels' bounds and, if it fits, sets up phase 2
+    /// from `z`'s `q_s` on the truth model (counted as a rollout); `None` if it does not fit
+    /// or phase 2 cannot start there.
     fn accept(
         &mut self,
         task: &Task<N, K>,
         phase2: &mut Task<N, K>,
         c: &TwoPhaseConfig,
         z: &Col,
-    ) -> Result<bool, Error> {
+    ) -> Result<Option<Fly<N, K>>, Error> {
         let qs = q_of::<N>(z);
-        let (p, d, fits) = fit_preshape(task, c, &qs)?;
+        let (preshape, demand, fits) = fit_preshape(task, c, &qs)?;
         if !fits {
-            return Ok(false);
+            return Ok(None);
         }
         // Phase 2 on the truth model: the plan is accepted only if the base stays put.
         let qc = clamped(task.robot(), &qs);
         self.rollouts = self.rollouts.saturating_add(1);
         if phase2.move_start(&qc).is_err() {
-            return Ok(false);
+            return Ok(None);
         }
-        let mut truth = TruthModel::new(phase2, TRUTH_SUBSTEPS);
-        let o = phase2.rollout(&to_eta::<K>(z, N), &mut truth).ok();
-        let disturbance = truth.max_angle();
-        if truth.error().is_some() || disturbance.is_nan() || disturbance > c.max_base_disturbance {
-            return Ok(false);
+        Ok(Rollout::new(phase2, &to_eta::<K>(z, N))
+            .ok()
+            .map(|rollout| Fly {
+                rollout,
+                truth: TruthState::new(TRUTH_SUBSTEPS),
+                preshape,
+                demand,
+            }))
+    }
+
+    /// Phase 2 of `z` flown (`fly`, ending in `o`): kept as the converged plan if the base
+    /// stayed within the limit on the truth model.
+    fn landed(&mut self, c: &TwoPhaseConfig, fly: &Fly<N, K>, o: &Outcome<N>, z: &Col) -> bool {
+        let disturbance = fly.truth.max_angle();
+        if fly.truth.error().is_some()
+            || disturbance.is_nan()
+            || disturbance > c.max_base_disturbance
+        {
+            return false;
         }
-        if let Some(o) = o {
-            self.base_disturbance = disturbance;
-            self.z = *z;
-            self.f = o.f;
-            self.outcome = Some(o);
-            self.preshape = Some((p, d));
-            self.stop = TwoPhaseStop::Converged;
-            return Ok(true);
-        }
-        Ok(false)
+        self.base_disturbance = disturbance;
+        self.z = *z;
+        self.f = o.f;
+        self.outcome = Some(*o);
+        self.preshape = Some((fly.preshape, fly.demand));
+        self.stop = TwoPhaseStop::Converged;
+        true
     }
 
     fn finish(&self, task: &Task<N, K>, c: &TwoPhaseConfig) -> TwoPhasePlan<N, K> {

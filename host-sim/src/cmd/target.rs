@@ -57,6 +57,10 @@ pub const RETIME_STATIC_RAM_BUDGET: u64 = 192 * 1024;
 /// image's largest grid, 3,000 points: 0.12 s of a 400 MHz Cortex-M7 at one instruction
 /// per cycle (measured: 37.0 M at 2,000 points, 40.0 M at 3,000 on the reference plan).
 pub const RETIME_INSTRUCTION_BUDGET: u64 = 48_000_000;
+/// Instruction budget of one frame of a two-phase plan (one search unit): half of a 10 Hz
+/// frame of a 400 MHz Cortex-M7 at one instruction per cycle (measured: 14.6 M, a
+/// planner-model rollout with its bookkeeping).
+pub const TWO_PHASE_UNIT_BUDGET: u64 = 20_000_000;
 
 /// What `target` reports.
 #[derive(Debug, Serialize, schemars::JsonSchema)]
@@ -543,7 +547,7 @@ impl Args {
         if let (None, Some(t)) = (&diff, &two_phase) {
             diff = compare_two_phase(t, &emulation.lines)?;
         }
-        let within = within_budgets(&image.elf, &on_target);
+        let within = within_budgets(&image.elf, &on_target, two_phase.is_some());
         let calls = on_target.instructions.calls;
         if calls != on_target.frames {
             return Err(CliError::failed(format!(
@@ -771,8 +775,10 @@ fn compare(
     Ok((diff, retimed))
 }
 
-/// Within the stack, static RAM and re-timing budgets.
-fn within_budgets(elf: &Elf, t: &OnTarget) -> bool {
+/// Within the stack, static RAM and re-timing budgets, and for a two-phase plan
+/// ([`TWO_PHASE_UNIT_BUDGET`]) each frame's.
+fn within_budgets(elf: &Elf, t: &OnTarget, two_phase: bool) -> bool {
+    let within_frame = !two_phase || t.instructions.max_call <= TWO_PHASE_UNIT_BUDGET;
     let within_retime = t
         .instructions
         .retime
@@ -781,6 +787,7 @@ fn within_budgets(elf: &Elf, t: &OnTarget) -> bool {
     t.stack <= STACK_BUDGET
         && elf.static_ram.saturating_sub(t.grid_bytes) <= STATIC_RAM_BUDGET
         && within_retime
+        && within_frame
 }
 
 /// What `target` reports (`--json`, or the text of [`print_report`]).

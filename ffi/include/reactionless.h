@@ -59,11 +59,20 @@
  */
 #define RL_CHECKPOINT_CAPACITY ((RL_PLANNER_WORDS * 8) + 64)
 
+
+
 /*
  Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
 #define RL_TWO_PHASE_WORDS 2600
+
+/*
+ Bytes that always hold a two-phase checkpoint of this ABI version
+ (`rl_two_phase_checkpoint_size()` is at most this), for sizing a static buffer or a CDS
+ block at compile time.
+ */
+#define RL_TWO_PHASE_CHECKPOINT_CAPACITY ((RL_TWO_PHASE_WORDS * 8) + 64)
 
 /*
  A status: `RL_OK`, `RL_RUNNING`, `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_STALLED`, `RL_DONE`,
@@ -606,9 +615,9 @@ rl_status rl_two_phase_init(struct rl_two_phase *t, uint32_t abi_version, size_t
 rl_status rl_two_phase_load_block(struct rl_two_phase *t, const uint8_t *block, size_t len);
 
 /*
- Moves the search on by at most `budget` units (one move of the search each: a forward
- kinematics of the reach check, a rollout, or the truth-model test of a start that met
- the goal, the largest). Returns `RL_RUNNING` while there is more to do, then
+ Moves the search on by at most `budget` units (one move of the search each, at most a
+ rollout's work: a forward kinematics of the reach check, a rollout, fitting phase 1 for
+ a start that met the goal, or 200 steps of its phase 2 on the truth model). Returns `RL_RUNNING` while there is more to do, then
  `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_BEYOND_REACH` or `RL_PRESHAPE_BOUNDS` with `*plan`
  filled (and the same again, without work, on every later call). `plan` is untouched
  while running. Any slicing gives the same plan bit for bit.
@@ -620,6 +629,39 @@ rl_status rl_two_phase_load_block(struct rl_two_phase *t, const uint8_t *block, 
 rl_status rl_two_phase_step(struct rl_two_phase *t,
                             uint32_t budget,
                             struct rl_two_phase_plan *plan);
+
+/*
+ Bytes of a two-phase checkpoint (header, search, CRC).
+ */
+size_t rl_two_phase_checkpoint_size(void);
+
+/*
+ Writes the whole search state (versioned, CRC-protected, magic `RLCKTP01`) to `buf`,
+ which must hold `rl_two_phase_checkpoint_size()` bytes (`RL_E_BUFFER` otherwise). Call
+ it between two `rl_two_phase_step` calls, or after the search finished (the plan and
+ phase 2's start are in it, so both phases stream after a restore). Valid for this same
+ build only (a reset, not a software upload).
+
+ # Safety
+ `t` NULL or an initialised search; `buf` NULL or writable for `len` bytes, not
+ overlapping `*t`.
+ */
+rl_status rl_two_phase_checkpoint(const struct rl_two_phase *t, uint8_t *buf, size_t len);
+
+/*
+ Restores a search from a two-phase checkpoint (after a reset: `rl_two_phase_init`, then
+ optionally `rl_two_phase_load_block` of the same task, then this). It continues
+ bit-identically: the same plan, counts and setpoints of both phases. The header and CRC
+ are checked before any byte is copied: a bad CRC, a wrong version, length or build, a
+ planner's checkpoint (`RL_E_CKPT_MAGIC`) or, if a task is loaded, another task's
+ checkpoint is rejected and `t` is left as it was.
+
+ # Safety
+ `t` NULL or an initialised search; `buf` NULL or readable for `len` bytes, not
+ overlapping `*t`. The bytes must come from `rl_two_phase_checkpoint` of this build: the
+ CRC catches corruption, not forgery.
+ */
+rl_status rl_two_phase_restore(struct rl_two_phase *t, const uint8_t *buf, size_t len);
 
 /*
  Starts streaming phase `phase` (1 or 2) of `t`'s finished plan into `s`: phase 1 from

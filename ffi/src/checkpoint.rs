@@ -1,20 +1,23 @@
-//! Checkpoint and restore of the flight planner, for memory that survives a processor reset
-//! (cFS's Critical Data Store, a no-init RAM section, an EEPROM page).
+//! Checkpoint and restore of the flight planner and of the two-phase search, for memory that
+//! survives a processor reset (cFS's Critical Data Store, a no-init RAM section, an EEPROM
+//! page).
 //!
-//! Owns the checkpoint's byte layout ([`write`], [`verify`], [`restore`]) and the task
-//! digest ([`task_digest`]). A checkpoint is the planner's own bytes behind a header that
-//! says which build and which task they belong to, and a CRC-32 over everything:
+//! Owns the checkpoint's byte layout ([`write`], [`verify`], [`verify_as`], [`restore`]),
+//! the states it holds ([`Payload`]: [`FlightPlanner`] and [`FlightTwoPhase`]) and the task
+//! digest ([`task_digest`]). A checkpoint is the state's own bytes behind a header that
+//! says which state, which build and which task they belong to, and a CRC-32 over
+//! everything:
 //!
 //! | bytes | field |
 //! |---|---|
-//! | 8 | magic `RLCKPT01` |
+//! | 8 | magic: `RLCKPT01` for the planner, `RLCKTP01` for the two-phase search ([`Payload::MAGIC`]) |
 //! | 4 | format version ([`FORMAT`], u32) |
 //! | 4 | [`crate::RL_ABI_VERSION`] (u32) |
-//! | 4 | total length in bytes, CRC included ([`LEN`], u32) |
-//! | 4 | `size_of::<Planner<7, 4, 64>>()` (u32) |
-//! | 8 | layout fingerprint ([`LAYOUT`], u64) |
+//! | 4 | total length in bytes, CRC included ([`LEN`], [`TWO_PHASE_LEN`], u32) |
+//! | 4 | `size_of` the state (u32) |
+//! | 8 | layout fingerprint ([`Payload::LAYOUT`], u64) |
 //! | 8 | task digest: FNV-1a-64 of the task block ([`task_digest`], u64) |
-//! | `size_of::<Planner>` | the planner's bytes |
+//! | `size_of` the state | the state's bytes |
 //! | 4 | CRC-32 (IEEE, as [`reactionless::block::crc32`]) of everything above |
 //!
 //! **Same build only.** The payload is the planner's in-memory representation, so a
@@ -33,20 +36,60 @@
 
 use core::mem::{align_of, size_of};
 use reactionless::block::crc32;
+use reactionless::twophase::{TwoPhaseConfig, TwoPhasePlan};
 use reactionless::{
-    Cpso, Multistart, Outcome, Plan, PlannerConfig, Rollout, Setpoints, Swarm, Task,
+    Cpso, Demand, Multistart, Outcome, Plan, PlannerConfig, Preshape, Rollout, Setpoints, Swarm,
+    Task, TruthState,
 };
 
 use crate::FlightPlanner;
+use crate::two_phase::FlightTwoPhase;
 
-/// The checkpoint's magic bytes.
+/// The planner checkpoint's magic bytes.
 pub const MAGIC: [u8; 8] = *b"RLCKPT01";
+/// The two-phase search checkpoint's magic bytes.
+pub const TWO_PHASE_MAGIC: [u8; 8] = *b"RLCKTP01";
 /// Format version of the layout above.
 pub const FORMAT: u32 = 1;
-/// Header bytes before the planner's.
+/// Header bytes before the state's.
 pub const HEADER_LEN: usize = 40;
-/// Total length of a checkpoint (bytes): header, planner, CRC.
-pub const LEN: usize = HEADER_LEN + size_of::<FlightPlanner>() + 4;
+/// Total length of a planner checkpoint (bytes): header, planner, CRC.
+pub const LEN: usize = <FlightPlanner as Payload>::LEN;
+/// Total length of a two-phase search checkpoint (bytes): header, search, CRC.
+pub const TWO_PHASE_LEN: usize = <FlightTwoPhase as Payload>::LEN;
+
+/// A state a checkpoint holds: [`FlightPlanner`] or [`FlightTwoPhase`] (sealed). Both are
+/// plain data (no pointers, references or interior mutability), so that the bytes
+/// [`write`] copied out of a value form a valid value again in the same build.
+pub trait Payload: sealed::Sealed + Sized {
+    /// The magic bytes naming the state.
+    const MAGIC: [u8; 8];
+    /// The layout fingerprint: FNV-1a-64 over the size and alignment of the state and of
+    /// the types it holds, the crate version, the pointer width and the endianness.
+    const LAYOUT: u64;
+    /// Total length of its checkpoint (bytes): header, state, CRC.
+    const LEN: usize = HEADER_LEN + size_of::<Self>() + 4;
+}
+
+mod sealed {
+    /// Only the states this module knows to be plain data.
+    pub trait Sealed {}
+    impl Sealed for crate::FlightPlanner {}
+    impl Sealed for crate::two_phase::FlightTwoPhase {}
+}
+
+// Plain data: the planner, its task, swarm, rollouts and plan are arrays of numbers and
+// enums; nothing points anywhere.
+impl Payload for FlightPlanner {
+    const MAGIC: [u8; 8] = MAGIC;
+    const LAYOUT: u64 = LAYOUT;
+}
+
+// Plain data: the search holds its own copies of its tasks, and numbers and enums besides.
+impl Payload for FlightTwoPhase {
+    const MAGIC: [u8; 8] = TWO_PHASE_MAGIC;
+    const LAYOUT: u64 = TWO_PHASE_LAYOUT;
+}
 
 /// Why a checkpoint was not written or not accepted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,8 +161,23 @@ pub fn task_digest(block: &[u8]) -> u64 {
     })
 }
 
-/// The layout fingerprint: FNV-1a-64 over the size and alignment of the planner and of
-/// the state types it holds, the crate version, the pointer width and the endianness.
+/// FNV-1a-64 over `(size, alignment)` pairs, the pointer width, the endianness and the
+/// crate version.
+#[allow(clippy::indexing_slicing)]
+const fn fingerprint(shapes: &[(usize, usize)]) -> u64 {
+    let mut h = FNV_OFFSET;
+    let mut i = 0;
+    while i < shapes.len() {
+        h = fnv_u64(h, shapes[i].0 as u64);
+        h = fnv_u64(h, shapes[i].1 as u64);
+        i += 1;
+    }
+    h = fnv_u64(h, size_of::<usize>() as u64);
+    h = fnv_u64(h, (1usize.to_le() ^ 1) as u64);
+    fnv_bytes(h, env!("CARGO_PKG_VERSION").as_bytes())
+}
+
+/// The planner's layout fingerprint ([`Payload::LAYOUT`]).
 #[allow(clippy::indexing_slicing)]
 pub const LAYOUT: u64 = {
     let shapes = [
@@ -148,11 +206,27 @@ pub const LAYOUT: u64 = {
     fnv_bytes(h, env!("CARGO_PKG_VERSION").as_bytes())
 };
 
-/// Writes the checkpoint of `planner`, whose task block has digest `task`, to the first
-/// [`LEN`] bytes of `out`; returns [`LEN`].
+/// The two-phase search's layout fingerprint ([`Payload::LAYOUT`]).
+pub const TWO_PHASE_LAYOUT: u64 = fingerprint(&[
+    (size_of::<FlightTwoPhase>(), align_of::<FlightTwoPhase>()),
+    (size_of::<Task<7, 4>>(), align_of::<Task<7, 4>>()),
+    (size_of::<Rollout<7, 4>>(), align_of::<Rollout<7, 4>>()),
+    (size_of::<TruthState<7>>(), align_of::<TruthState<7>>()),
+    (size_of::<Preshape<7>>(), align_of::<Preshape<7>>()),
+    (size_of::<Demand>(), align_of::<Demand>()),
+    (
+        size_of::<TwoPhasePlan<7, 4>>(),
+        align_of::<TwoPhasePlan<7, 4>>(),
+    ),
+    (size_of::<TwoPhaseConfig>(), align_of::<TwoPhaseConfig>()),
+    (size_of::<Outcome<7>>(), align_of::<Outcome<7>>()),
+]);
+
+/// Writes the checkpoint of `state` (the planner or the two-phase search), whose task block
+/// has digest `task`, to the first [`Payload::LEN`] bytes of `out`; returns that length.
 ///
 /// # Errors
-/// [`Fault::Buffer`] if `out` is shorter than [`LEN`] (nothing is written).
+/// [`Fault::Buffer`] if `out` is shorter than [`Payload::LEN`] (nothing is written).
 ///
 /// ```
 /// use reactionless_ffi::{FlightPlanner, checkpoint};
@@ -163,12 +237,11 @@ pub const LAYOUT: u64 = {
 /// buf[100] ^= 1;
 /// assert_eq!(checkpoint::verify(&buf, Some(42)), Err(checkpoint::Fault::Checksum));
 /// ```
-pub fn write(planner: &FlightPlanner, task: u64, out: &mut [u8]) -> Result<usize, Fault> {
-    let out = out.get_mut(..LEN).ok_or(Fault::Buffer)?;
+pub fn write<T: Payload>(state: &T, task: u64, out: &mut [u8]) -> Result<usize, Fault> {
+    let len = T::LEN;
+    let out = out.get_mut(..len).ok_or(Fault::Buffer)?;
     let (head, rest) = out.split_at_mut_checked(HEADER_LEN).ok_or(Fault::Buffer)?;
-    let payload = rest
-        .get_mut(..size_of::<FlightPlanner>())
-        .ok_or(Fault::Buffer)?;
+    let payload = rest.get_mut(..size_of::<T>()).ok_or(Fault::Buffer)?;
     let mut at = 0;
     let mut put = |b: &[u8]| {
         if let Some(dst) = head.get_mut(at..at + b.len()) {
@@ -176,19 +249,19 @@ pub fn write(planner: &FlightPlanner, task: u64, out: &mut [u8]) -> Result<usize
         }
         at += b.len();
     };
-    put(&MAGIC);
+    put(&T::MAGIC);
     put(&FORMAT.to_le_bytes());
     put(&crate::RL_ABI_VERSION.to_le_bytes());
-    put(&(LEN as u32).to_le_bytes());
-    put(&(size_of::<FlightPlanner>() as u32).to_le_bytes());
-    put(&LAYOUT.to_le_bytes());
+    put(&(len as u32).to_le_bytes());
+    put(&(size_of::<T>() as u32).to_le_bytes());
+    put(&T::LAYOUT.to_le_bytes());
     put(&task.to_le_bytes());
-    copy_out(planner, payload);
-    let sum = crc32(out.get(..LEN - 4).unwrap_or(&[]));
-    if let Some(dst) = out.get_mut(LEN - 4..LEN) {
+    copy_out(state, payload);
+    let sum = crc32(out.get(..len - 4).unwrap_or(&[]));
+    if let Some(dst) = out.get_mut(len - 4..len) {
         dst.copy_from_slice(&sum.to_le_bytes());
     }
-    Ok(LEN)
+    Ok(len)
 }
 
 fn u32_at(b: &[u8], at: usize) -> u32 {
@@ -207,27 +280,37 @@ fn u64_at(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(v)
 }
 
-/// Checks a checkpoint without touching any planner: the length, magic, versions, sizes,
-/// layout fingerprint, CRC-32 and, if `task` is given, the task digest. Returns the
-/// checkpoint's task digest. Bytes of `buf` past [`LEN`] are ignored.
+/// [`verify_as`] for a planner checkpoint.
+///
+/// # Errors
+/// As [`verify_as`].
+pub fn verify(buf: &[u8], task: Option<u64>) -> Result<u64, Fault> {
+    verify_as::<FlightPlanner>(buf, task)
+}
+
+/// Checks a checkpoint of a `T` without touching any state: the length, magic (a
+/// checkpoint of the other state is [`Fault::Magic`]), versions, sizes, layout
+/// fingerprint, CRC-32 and, if `task` is given, the task digest. Returns the checkpoint's
+/// task digest. Bytes of `buf` past [`Payload::LEN`] are ignored.
 ///
 /// # Errors
 /// The first check that fails, in the order above ([`Fault`]).
-pub fn verify(buf: &[u8], task: Option<u64>) -> Result<u64, Fault> {
-    let buf = buf.get(..LEN).ok_or(Fault::Length)?;
-    if buf.get(..8) != Some(&MAGIC[..]) {
+pub fn verify_as<T: Payload>(buf: &[u8], task: Option<u64>) -> Result<u64, Fault> {
+    let len = T::LEN;
+    let buf = buf.get(..len).ok_or(Fault::Length)?;
+    if buf.get(..8) != Some(&T::MAGIC[..]) {
         return Err(Fault::Magic);
     }
     if u32_at(buf, 8) != FORMAT || u32_at(buf, 12) != crate::RL_ABI_VERSION {
         return Err(Fault::Version);
     }
-    if u32_at(buf, 16) as usize != LEN || u32_at(buf, 20) as usize != size_of::<FlightPlanner>() {
+    if u32_at(buf, 16) as usize != len || u32_at(buf, 20) as usize != size_of::<T>() {
         return Err(Fault::Length);
     }
-    if u64_at(buf, 24) != LAYOUT {
+    if u64_at(buf, 24) != T::LAYOUT {
         return Err(Fault::Layout);
     }
-    if crc32(buf.get(..LEN - 4).unwrap_or(&[])) != u32_at(buf, LEN - 4) {
+    if crc32(buf.get(..len - 4).unwrap_or(&[])) != u32_at(buf, len - 4) {
         return Err(Fault::Checksum);
     }
     let theirs = u64_at(buf, 32);
@@ -237,51 +320,51 @@ pub fn verify(buf: &[u8], task: Option<u64>) -> Result<u64, Fault> {
     }
 }
 
-/// Restores `planner` from a checkpoint after [`verify`] accepts it (with `task`, the
+/// Restores `state` from a checkpoint after [`verify_as`] accepts it (with `task`, the
 /// digest of the task block the caller has loaded, or `None` to accept any task); returns
-/// the checkpoint's task digest. On any fault `planner` is left untouched. The restored
-/// planner continues bit for bit as the one that was checkpointed.
+/// the checkpoint's task digest. On any fault `state` is left untouched. The restored
+/// planner or search continues bit for bit as the one that was checkpointed.
 ///
 /// # Errors
-/// As [`verify`].
+/// As [`verify_as`].
 ///
 /// # Safety
 /// `buf` must have been written by [`write`] of this same build (possibly after a reset).
 /// The CRC and the header catch corruption, not forgery: bytes with a valid header and CRC
-/// that are not a planner's are undefined behaviour.
+/// that are not a `T`'s are undefined behaviour.
 #[allow(unsafe_code)]
-pub unsafe fn restore(
-    planner: &mut FlightPlanner,
+pub unsafe fn restore<T: Payload>(
+    state: &mut T,
     task: Option<u64>,
     buf: &[u8],
 ) -> Result<u64, Fault> {
-    let theirs = verify(buf, task)?;
+    let theirs = verify_as::<T>(buf, task)?;
     let payload = buf
-        .get(HEADER_LEN..HEADER_LEN + size_of::<FlightPlanner>())
+        .get(HEADER_LEN..HEADER_LEN + size_of::<T>())
         .ok_or(Fault::Length)?;
-    // SAFETY: `payload` is exactly size_of::<FlightPlanner>() bytes (checked just above)
-    // and does not overlap `planner` (a shared and a unique borrow); by this function's
-    // contract they are the bytes of a FlightPlanner of this build, which has no pointers
-    // or references (plain data), so any such bytes form a valid value.
+    // SAFETY: `payload` is exactly size_of::<T>() bytes (checked just above) and does not
+    // overlap `state` (a shared and a unique borrow); by this function's contract they are
+    // the bytes of a T of this build, which is plain data ([`Payload`]'s contract), so any
+    // such bytes form a valid value.
     unsafe {
         core::ptr::copy_nonoverlapping(
             payload.as_ptr(),
-            core::ptr::from_mut(planner).cast::<u8>(),
-            size_of::<FlightPlanner>(),
+            core::ptr::from_mut(state).cast::<u8>(),
+            size_of::<T>(),
         );
     }
     Ok(theirs)
 }
 
-/// Copies the bytes of `planner` into `dst` (`size_of::<FlightPlanner>()` long).
+/// Copies the bytes of `state` into `dst` (`size_of::<T>()` long).
 #[allow(unsafe_code)]
-fn copy_out(planner: &FlightPlanner, dst: &mut [u8]) {
-    let src = core::ptr::from_ref(planner).cast::<u8>();
-    for (i, d) in dst.iter_mut().take(size_of::<FlightPlanner>()).enumerate() {
-        // SAFETY: i < size_of::<FlightPlanner>(), so `src.add(i)` lies inside `*planner`,
-        // which is borrowed for the whole loop. The read is volatile so that padding bytes
-        // are copied as whatever they hold (the CRC covers them); their value never
-        // matters on restore.
+fn copy_out<T: Payload>(state: &T, dst: &mut [u8]) {
+    let src = core::ptr::from_ref(state).cast::<u8>();
+    for (i, d) in dst.iter_mut().take(size_of::<T>()).enumerate() {
+        // SAFETY: i < size_of::<T>(), so `src.add(i)` lies inside `*state`, which is
+        // borrowed for the whole loop. The read is volatile so that padding bytes are
+        // copied as whatever they hold (the CRC covers them); their value never matters on
+        // restore.
         *d = unsafe { src.add(i).read_volatile() };
     }
 }

@@ -51,8 +51,10 @@ pub mod checkpoint;
 pub mod two_phase;
 
 pub use two_phase::{
-    FlightTwoPhase, RL_TWO_PHASE_WORDS, rl_two_phase, rl_two_phase_init, rl_two_phase_load_block,
-    rl_two_phase_plan, rl_two_phase_setpoints_init, rl_two_phase_setpoints_next, rl_two_phase_step,
+    FlightTwoPhase, RL_TWO_PHASE_CHECKPOINT_CAPACITY, RL_TWO_PHASE_WORDS, rl_two_phase,
+    rl_two_phase_checkpoint, rl_two_phase_checkpoint_size, rl_two_phase_init,
+    rl_two_phase_load_block, rl_two_phase_plan, rl_two_phase_restore, rl_two_phase_setpoints_init,
+    rl_two_phase_setpoints_next, rl_two_phase_step,
 };
 
 use core::ffi::c_char;
@@ -477,7 +479,7 @@ pub(crate) fn load_error(e: Error) -> rl_status {
     }
 }
 
-fn fault_status(f: checkpoint::Fault) -> rl_status {
+pub(crate) fn fault_status(f: checkpoint::Fault) -> rl_status {
     use checkpoint::Fault;
     match f {
         Fault::Buffer => RL_E_BUFFER,

@@ -3,7 +3,7 @@
 //!
 //! Owns [`rl_two_phase`] (the search's storage), [`rl_two_phase_plan`] (what a finished
 //! search reports) and their functions `rl_two_phase_init`, `rl_two_phase_load_block`,
-//! `rl_two_phase_step`, and the streams of the two phases' setpoints in an
+//! `rl_two_phase_step`, its checkpoints, and the streams of the two phases' setpoints in an
 //! [`crate::rl_setpoints`] (`rl_two_phase_setpoints_init`, `rl_two_phase_setpoints_next`). The same contract as [`crate::rl_planner`]: the caller's header
 //! version and `sizeof` are checked at init, storage is the caller's (static app data),
 //! every pointer is checked for NULL and every object for its state, nothing panics.
@@ -11,11 +11,13 @@
 //! A two-phase block (`RLTASK04`, `RLTASK05`: a task with `[preshape]`) goes here; the
 //! single-phase `rl_planner` refuses it (`RL_E_TWO_PHASE`) and this refuses a single-phase
 //! block (`RL_E_ONE_PHASE`). A unit of `rl_two_phase_step`'s budget is one move of the
-//! search (at most one evaluation: a forward kinematics of the reach check, a rollout, or
-//! the truth-model test of a start that met the goal); any slicing gives the same bits.
-//! Each phase streams on its own, `t` from 0: phase 1 under attitude control, then phase 2
-//! free floating; what is streamed is what was planned, bit for bit. Not yet here:
-//! checkpoints of the search.
+//! search (at most a rollout's work: a forward kinematics of the reach check, a rollout,
+//! fitting phase 1 for a start that met the goal, or 200 steps of its phase 2 on the truth
+//! model); any slicing gives the same bits. Each phase streams on its own, `t` from 0:
+//! phase 1 under attitude control, then phase 2 free floating; what is streamed is what was
+//! planned, bit for bit. The search checkpoints and restores as the planner does
+//! (`rl_two_phase_checkpoint_size`, `rl_two_phase_checkpoint`, `rl_two_phase_restore`;
+//! [`crate::checkpoint`]).
 //!
 //! Verifies RL-FFI-011.
 
@@ -28,8 +30,8 @@ use crate::{
     FlightSetpoints, RL_ABI_VERSION, RL_BEYOND_REACH, RL_CONVERGED, RL_DONE, RL_E_ABI_VERSION,
     RL_E_MISMATCH, RL_E_NO_PLAN, RL_E_NO_TASK, RL_E_NULL, RL_E_PHASE, RL_E_PLANNING, RL_E_SIZE,
     RL_E_STREAM, RL_E_UNINITIALIZED, RL_ETA_LEN, RL_EXHAUSTED, RL_JOINTS, RL_OK,
-    RL_PRESHAPE_BOUNDS, RL_RUNNING, RL_SETPOINTS_WORDS, checkpoint, load_error, rl_setpoint,
-    rl_setpoints, rl_status,
+    RL_PRESHAPE_BOUNDS, RL_RUNNING, RL_SETPOINTS_WORDS, checkpoint, fault_status, load_error,
+    rl_setpoint, rl_setpoints, rl_status,
 };
 
 /// The flight two-phase search: 7 joints, null-space dimension 4.
@@ -38,6 +40,10 @@ pub type FlightTwoPhase = TwoPhaseSearch<7, 4>;
 /// Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
 /// target, with headroom so that a small growth of the core keeps the ABI.
 pub const RL_TWO_PHASE_WORDS: usize = 2600;
+/// Bytes that always hold a two-phase checkpoint of this ABI version
+/// (`rl_two_phase_checkpoint_size()` is at most this), for sizing a static buffer or a CDS
+/// block at compile time.
+pub const RL_TWO_PHASE_CHECKPOINT_CAPACITY: usize = RL_TWO_PHASE_WORDS * 8 + 64;
 
 const TWO_PHASE_MAGIC: u32 = 0x524c_5432; // "RLT2"
 /// An [`rl_setpoints`] streaming phase 1 (it holds a `PreshapeSetpoints<7>`).
@@ -46,6 +52,7 @@ pub(crate) const PHASE1_MAGIC: u32 = 0x524c_5331; // "RLS1"
 pub(crate) const PHASE2_MAGIC: u32 = 0x524c_5332; // "RLS2"
 
 const _: () = assert!(size_of::<FlightTwoPhase>() <= RL_TWO_PHASE_WORDS * 8);
+const _: () = assert!(checkpoint::TWO_PHASE_LEN <= RL_TWO_PHASE_CHECKPOINT_CAPACITY);
 const _: () = assert!(align_of::<FlightTwoPhase>() <= align_of::<u64>());
 const _: () = assert!(size_of::<PreshapeSetpoints<7>>() <= RL_SETPOINTS_WORDS * 8);
 const _: () = assert!(align_of::<PreshapeSetpoints<7>>() <= align_of::<u64>());
@@ -213,6 +220,35 @@ impl rl_two_phase {
         Ok(unsafe { &*self.storage.as_ptr().cast::<FlightTwoPhase>() })
     }
 
+    fn checkpoint(&self, buf: &mut [u8]) -> rl_status {
+        let search = match self.loaded() {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        match checkpoint::write(search, self.task, buf) {
+            Ok(_) => RL_OK,
+            Err(f) => fault_status(f),
+        }
+    }
+
+    #[allow(unsafe_code)]
+    fn restore(&mut self, buf: &[u8]) -> rl_status {
+        let expected = (self.loaded == 1).then_some(self.task);
+        let Some(search) = self.search_mut() else {
+            return RL_E_UNINITIALIZED;
+        };
+        // SAFETY: the C contract of rl_two_phase_restore: `buf` holds a checkpoint written
+        // by rl_two_phase_checkpoint of this build; header and CRC are checked first.
+        match unsafe { checkpoint::restore(search, expected, buf) } {
+            Ok(task) => {
+                self.task = task;
+                self.loaded = 1;
+                RL_OK
+            }
+            Err(f) => fault_status(f),
+        }
+    }
+
     fn step(&mut self, budget: u32, plan: &mut rl_two_phase_plan) -> rl_status {
         let loaded = self.loaded == 1;
         let Some(search) = self.search_mut() else {
@@ -302,9 +338,9 @@ pub unsafe extern "C" fn rl_two_phase_load_block(
     }
 }
 
-/// Moves the search on by at most `budget` units (one move of the search each: a forward
-/// kinematics of the reach check, a rollout, or the truth-model test of a start that met
-/// the goal, the largest). Returns `RL_RUNNING` while there is more to do, then
+/// Moves the search on by at most `budget` units (one move of the search each, at most a
+/// rollout's work: a forward kinematics of the reach check, a rollout, fitting phase 1 for
+/// a start that met the goal, or 200 steps of its phase 2 on the truth model). Returns `RL_RUNNING` while there is more to do, then
 /// `RL_CONVERGED`, `RL_EXHAUSTED`, `RL_BEYOND_REACH` or `RL_PRESHAPE_BOUNDS` with `*plan`
 /// filled (and the same again, without work, on every later call). `plan` is untouched
 /// while running. Any slicing gives the same plan bit for bit.
@@ -324,6 +360,69 @@ pub unsafe extern "C" fn rl_two_phase_step(
     match unsafe { (t.as_mut(), plan.as_mut()) } {
         (Some(t), Some(plan)) => t.step(budget, plan),
         _ => RL_E_NULL,
+    }
+}
+
+/// Bytes of a two-phase checkpoint (header, search, CRC).
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub extern "C" fn rl_two_phase_checkpoint_size() -> usize {
+    checkpoint::TWO_PHASE_LEN
+}
+
+/// Writes the whole search state (versioned, CRC-protected, magic `RLCKTP01`) to `buf`,
+/// which must hold `rl_two_phase_checkpoint_size()` bytes (`RL_E_BUFFER` otherwise). Call
+/// it between two `rl_two_phase_step` calls, or after the search finished (the plan and
+/// phase 2's start are in it, so both phases stream after a restore). Valid for this same
+/// build only (a reset, not a software upload).
+///
+/// # Safety
+/// `t` NULL or an initialised search; `buf` NULL or writable for `len` bytes, not
+/// overlapping `*t`.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_checkpoint(
+    t: *const rl_two_phase,
+    buf: *mut u8,
+    len: usize,
+) -> rl_status {
+    if buf.is_null() {
+        return RL_E_NULL;
+    }
+    // SAFETY: non-NULL; by the contract `buf` is writable for `len` bytes and does not
+    // overlap `*t`, which is valid for reads.
+    match unsafe { t.as_ref() } {
+        Some(t) => t.checkpoint(unsafe { core::slice::from_raw_parts_mut(buf, len) }),
+        None => RL_E_NULL,
+    }
+}
+
+/// Restores a search from a two-phase checkpoint (after a reset: `rl_two_phase_init`, then
+/// optionally `rl_two_phase_load_block` of the same task, then this). It continues
+/// bit-identically: the same plan, counts and setpoints of both phases. The header and CRC
+/// are checked before any byte is copied: a bad CRC, a wrong version, length or build, a
+/// planner's checkpoint (`RL_E_CKPT_MAGIC`) or, if a task is loaded, another task's
+/// checkpoint is rejected and `t` is left as it was.
+///
+/// # Safety
+/// `t` NULL or an initialised search; `buf` NULL or readable for `len` bytes, not
+/// overlapping `*t`. The bytes must come from `rl_two_phase_checkpoint` of this build: the
+/// CRC catches corruption, not forgery.
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rl_two_phase_restore(
+    t: *mut rl_two_phase,
+    buf: *const u8,
+    len: usize,
+) -> rl_status {
+    if buf.is_null() {
+        return RL_E_NULL;
+    }
+    // SAFETY: non-NULL; by the contract `t` is exclusive and `buf` readable for `len`
+    // bytes without overlapping it.
+    match unsafe { t.as_mut() } {
+        Some(t) => t.restore(unsafe { core::slice::from_raw_parts(buf, len) }),
+        None => RL_E_NULL,
     }
 }
 

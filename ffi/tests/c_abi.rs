@@ -162,8 +162,9 @@ fn header_compiles_as_cpp11() {
 /// `rl_two_phase` in frames of 25 units, through the checked-in header, and gets the bits
 /// the host plans for the same task file: `q_s`, η, `f`, the counts, the inverse's `f`, the
 /// base disturbance and the wheels' demand; then streams both phases, whose digests are the
-/// host's (phase1.csv's, and phase 2's rollout from `q_s`).
-/// Verifies RL-FFI-011.
+/// host's (phase1.csv's, and phase 2's rollout from `q_s`). At frame 10 it checkpoints the
+/// search, wipes its storage, initialises and restores it, and the bits stay the host's.
+/// Verifies RL-FFI-011, RL-FFI-012.
 #[test]
 fn c_program_plans_a_two_phase_block() {
     let dir = out_dir();
@@ -171,7 +172,7 @@ fn c_program_plans_a_two_phase_block() {
     let block = dir.join("two_phase.block");
     block_of(task, &block);
     let exe = dir.join("two_phase_test");
-    compile_c(&["two_phase_main.c"], &exe);
+    compile_c(&["two_phase_test.c", "two_phase_main.c"], &exe);
     let text = run(Command::new(&exe).arg(&block));
     println!("{text}");
     let got = parse(&text);
@@ -186,7 +187,8 @@ fn c_program_plans_a_two_phase_block() {
             .clone()
     };
     let want = |k: &str, v: String| {
-        assert_eq!(got.get(k), Some(&v), "{k}: C output\n{text}");
+        let k = format!("TWO_{k}");
+        assert_eq!(got.get(&k), Some(&v), "{k}: C output\n{text}");
     };
     want("STATUS", reactionless_ffi::RL_CONVERGED.to_string());
     want("ROLLOUTS", host.outputs.rollouts.to_string());
@@ -207,6 +209,6 @@ fn c_program_plans_a_two_phase_block() {
     want("SAMPLES1", field("samples1"));
     want("DIGEST2", host.outputs.trajectory_digest.clone());
     want("SAMPLES2", host.outputs.trajectory_samples.to_string());
-    let frames: u32 = got["FRAMES"].parse().unwrap();
+    let frames: u32 = got["TWO_FRAMES"].parse().unwrap();
     assert!(frames > 10, "{frames} frames");
 }

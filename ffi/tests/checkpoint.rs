@@ -50,12 +50,12 @@ fn restore_continues_bit_identically() {
         ));
     }
     let mut buf = vec![0u8; LEN];
-    assert_eq!(checkpoint::write(&first, task, &mut buf), Ok(LEN));
+    assert_eq!(checkpoint::write(&*first, task, &mut buf), Ok(LEN));
     drop(first);
     let mut second = Box::new(FlightPlanner::IDLE);
     // SAFETY: `buf` was written by checkpoint::write of this build just above.
     #[allow(unsafe_code)]
-    let theirs = unsafe { checkpoint::restore(&mut second, Some(task), &buf) };
+    let theirs = unsafe { checkpoint::restore(&mut *second, Some(task), &buf) };
     assert_eq!(theirs, Ok(task));
     let again = loop {
         if let Status::Finished(p) = second.step(budget, &mut ()).unwrap() {
@@ -77,10 +77,10 @@ fn damaged_checkpoints_are_rejected_by_kind() {
     let p = loaded(&bytes);
     let mut buf = vec![0u8; LEN];
     assert_eq!(
-        checkpoint::write(&p, task, &mut buf[..LEN - 1]),
+        checkpoint::write(&*p, task, &mut buf[..LEN - 1]),
         Err(Fault::Buffer)
     );
-    checkpoint::write(&p, task, &mut buf).unwrap();
+    checkpoint::write(&*p, task, &mut buf).unwrap();
     assert_eq!(checkpoint::verify(&buf, Some(task)), Ok(task));
     assert_eq!(
         checkpoint::verify(&buf[..LEN - 1], None),
@@ -107,7 +107,7 @@ fn damaged_checkpoints_are_rejected_by_kind() {
         let before = (*q).clone();
         // SAFETY: a rejected checkpoint is never copied in (that is what is tested).
         #[allow(unsafe_code)]
-        let r = unsafe { checkpoint::restore(&mut q, None, &bad) };
+        let r = unsafe { checkpoint::restore(&mut *q, None, &bad) };
         assert_eq!(r, Err(fault));
         assert!(*q == before, "byte {at}: the planner changed");
     }

@@ -305,3 +305,206 @@ fn rl_two_phase_names_what_is_wrong() {
     }
     assert_eq!(plan.converged, 1);
 }
+
+/// A fresh, initialised `rl_two_phase` (boxed: 20 KB), with `block` loaded if given.
+#[allow(unsafe_code)]
+fn search(block: Option<&[u8]>) -> Box<rl_two_phase> {
+    let mut t = Box::new(rl_two_phase::ZEROED);
+    // SAFETY: `t` is a valid, exclusive rl_two_phase; the block is readable for its length.
+    unsafe {
+        assert_eq!(
+            rl_two_phase_init(
+                &mut *t,
+                RL_ABI_VERSION,
+                core::mem::size_of::<rl_two_phase>()
+            ),
+            RL_OK
+        );
+        if let Some(b) = block {
+            assert_eq!(rl_two_phase_load_block(&mut *t, b.as_ptr(), b.len()), RL_OK);
+        }
+    }
+    t
+}
+
+/// Steps `t` by `units` units, one per call; the status of the last call.
+#[allow(unsafe_code)]
+fn step_units(t: &mut rl_two_phase, units: u32, plan: &mut rl_two_phase_plan) -> rl_status {
+    let mut s = RL_RUNNING;
+    for _ in 0..units {
+        // SAFETY: `t` is an initialised search, `plan` writable.
+        s = unsafe { rl_two_phase_step(t, 1, plan) };
+    }
+    s
+}
+
+/// A search checkpointed at any point (early in the search, in the middle of the
+/// truth-model flight of the accepted start, after it finished) and restored into fresh
+/// storage after a "reset" ends on the very plan of one that never stopped, and streams
+/// the same samples of both phases, bit for bit.
+/// Verifies RL-FFI-012.
+#[test]
+#[allow(unsafe_code)]
+fn a_restored_two_phase_search_continues_bit_identically() {
+    let two = block("tests/tasks/g/chaser7/joint20/task_001.toml");
+    let mut straight = search(Some(&two));
+    let mut want = rl_two_phase_plan::ZEROED;
+    let mut units = 0u32;
+    // SAFETY: as in `search`.
+    while unsafe { rl_two_phase_step(&mut *straight, 1, &mut want) } == RL_RUNNING {
+        units += 1;
+    }
+    let streams = (stream(&straight, 1).unwrap(), stream(&straight, 2).unwrap());
+    let len = rl_two_phase_checkpoint_size();
+    assert!(len <= RL_TWO_PHASE_CHECKPOINT_CAPACITY);
+    // Units 150 (screening), `units − 5` (phase 2 of the accepted start on the truth model,
+    // whose units are the last 15) and `units + 1` (finished).
+    for at in [150, units - 5, units + 1] {
+        let mut first = search(Some(&two));
+        let mut plan = rl_two_phase_plan::ZEROED;
+        let s = step_units(&mut first, at, &mut plan);
+        assert_eq!(s, if at > units { RL_CONVERGED } else { RL_RUNNING });
+        let mut buf = vec![0u8; len];
+        // SAFETY: `buf` is writable for `len` bytes; `first` an initialised search.
+        unsafe {
+            assert_eq!(
+                rl_two_phase_checkpoint(&*first, buf.as_mut_ptr(), buf.len()),
+                RL_OK
+            );
+        }
+        drop(first);
+        let mut second = search(None);
+        // SAFETY: `buf` was written by rl_two_phase_checkpoint of this build just above.
+        let got = unsafe {
+            assert_eq!(
+                rl_two_phase_restore(&mut *second, buf.as_ptr(), buf.len()),
+                RL_OK
+            );
+            loop {
+                let s = rl_two_phase_step(&mut *second, 7, &mut plan);
+                if s != RL_RUNNING {
+                    break s;
+                }
+            }
+        };
+        assert_eq!(got, RL_CONVERGED, "checkpoint at unit {at}");
+        assert_eq!(format!("{plan:?}"), format!("{want:?}"), "unit {at}");
+        let again = (stream(&second, 1).unwrap(), stream(&second, 2).unwrap());
+        assert_eq!(again, streams, "unit {at}");
+    }
+}
+
+/// Two-phase checkpoints are checked before a byte is copied: a short buffer, a flipped
+/// bit, a planner's checkpoint, another task's, NULLs, an uninitialised or task-less
+/// search; a refused restore leaves the search as it was.
+/// Verifies RL-FFI-012.
+#[test]
+#[allow(unsafe_code)]
+fn a_bad_two_phase_checkpoint_is_refused() {
+    let two = block("tests/tasks/g/chaser7/joint20/task_001.toml");
+    let far = block("tests/tasks/g/chaser7/moved5cm/task_002.toml");
+    let len = rl_two_phase_checkpoint_size();
+    let mut buf = vec![0u8; len];
+    let mut plan = rl_two_phase_plan::ZEROED;
+    let mut t = search(Some(&two));
+    assert_eq!(step_units(&mut t, 20, &mut plan), RL_RUNNING);
+    // SAFETY: every buffer is readable/writable for the length given; NULLs are what is
+    // being tested; the searches are initialised unless the test says otherwise.
+    unsafe {
+        assert_eq!(
+            rl_two_phase_checkpoint(&*t, buf.as_mut_ptr(), len - 1),
+            RL_E_BUFFER
+        );
+        assert_eq!(
+            rl_two_phase_checkpoint(&*t, core::ptr::null_mut(), len),
+            RL_E_NULL
+        );
+        assert_eq!(
+            rl_two_phase_checkpoint(core::ptr::null(), buf.as_mut_ptr(), len),
+            RL_E_NULL
+        );
+        let idle = search(None);
+        assert_eq!(
+            rl_two_phase_checkpoint(&*idle, buf.as_mut_ptr(), len),
+            RL_E_NO_TASK
+        );
+        let mut zeroed = Box::new(rl_two_phase::ZEROED);
+        assert_eq!(
+            rl_two_phase_checkpoint(&*zeroed, buf.as_mut_ptr(), len),
+            RL_E_UNINITIALIZED
+        );
+        assert_eq!(rl_two_phase_checkpoint(&*t, buf.as_mut_ptr(), len), RL_OK);
+        assert_eq!(
+            rl_two_phase_restore(&mut *zeroed, buf.as_ptr(), len),
+            RL_E_UNINITIALIZED
+        );
+        assert_eq!(
+            rl_two_phase_restore(&mut *t, core::ptr::null(), len),
+            RL_E_NULL
+        );
+        // Another task's search refuses it and keeps planning its own task.
+        let mut other = search(Some(&far));
+        assert_eq!(
+            rl_two_phase_restore(&mut *other, buf.as_ptr(), len),
+            RL_E_CKPT_TASK
+        );
+        let mut s;
+        loop {
+            s = rl_two_phase_step(&mut *other, 1000, &mut plan);
+            if s != RL_RUNNING {
+                break;
+            }
+        }
+        assert_eq!(s, RL_BEYOND_REACH);
+        let mut fresh = search(None);
+        assert_eq!(
+            rl_two_phase_restore(&mut *fresh, buf.as_ptr(), len - 1),
+            RL_E_CKPT_LENGTH
+        );
+        for at in [0, 8, 24, 100, len - 1] {
+            let mut bad = buf.clone();
+            bad[at] ^= 1;
+            let want = match at {
+                0 => RL_E_CKPT_MAGIC,
+                8 => RL_E_CKPT_VERSION,
+                24 => RL_E_CKPT_LAYOUT,
+                _ => RL_E_CKPT_CRC,
+            };
+            assert_eq!(
+                rl_two_phase_restore(&mut *fresh, bad.as_ptr(), len),
+                want,
+                "byte {at}"
+            );
+        }
+        // Refused restores left `fresh` with no task.
+        assert_eq!(rl_two_phase_step(&mut *fresh, 1, &mut plan), RL_E_NO_TASK);
+        // A planner's checkpoint is not a search's, and a search's is not a planner's.
+        let one = block("spec/tasks/paper.toml");
+        let mut p = Box::new(rl_planner::ZEROED);
+        assert_eq!(
+            rl_planner_init(&mut *p, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
+            RL_OK
+        );
+        assert_eq!(
+            rl_planner_load_block(&mut *p, one.as_ptr(), one.len()),
+            RL_OK
+        );
+        let mut pbuf = vec![0u8; rl_checkpoint_size().max(len)];
+        assert_eq!(
+            rl_planner_checkpoint(&*p, pbuf.as_mut_ptr(), pbuf.len()),
+            RL_OK
+        );
+        assert_eq!(
+            rl_two_phase_restore(&mut *fresh, pbuf.as_ptr(), pbuf.len()),
+            RL_E_CKPT_MAGIC
+        );
+        let mut q = Box::new(rl_planner::ZEROED);
+        assert_eq!(
+            rl_planner_init(&mut *q, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
+            RL_OK
+        );
+        let mut big = buf.clone();
+        big.resize(rl_checkpoint_size().max(len), 0);
+        assert_ne!(rl_planner_restore(&mut *q, big.as_ptr(), big.len()), RL_OK);
+    }
+}

@@ -9,6 +9,10 @@
  * check passed. */
 int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other, size_t other_len);
 
+/* Runs the two-phase test (two_phase_test.c) on a two-phase `block`; returns 0 if it
+ * planned and streamed both phases. */
+int rl_two_phase_test_run(const uint8_t *block, size_t len);
+
 /* Writes `v` in decimal with rl_test_write. */
 void rl_test_put_u32(uint32_t v);
 

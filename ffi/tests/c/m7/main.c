@@ -1,6 +1,7 @@
 /* Cortex-M7 platform of the C ABI test (QEMU mps2-an500, semihosting): the vector table and
  * reset handler (FPU on, .data copied, .bss zeroed), output and exit through semihosting,
- * the task blocks QEMU's loader placed at _task_block and _other_block, and the painted
+ * the task blocks QEMU's loader placed at _task_block, _other_block and _two_phase_block
+ * (the two-phase test, two_phase_test.c, runs after the C ABI test), and the painted
  * stack: every word below the current frame is painted before a call and the deepest word
  * no longer painted after it is the high-water mark. Built with arm-none-eabi-gcc against
  * newlib (string.h) and the thumbv7em-none-eabihf staticlib; see scripts/c-abi-m7.sh. */
@@ -15,7 +16,7 @@
 
 extern uint32_t _data_load, _data_start, _data_end, _bss_start, _bss_end;
 extern uint32_t _stack_top, _stack_limit;
-extern const uint8_t _task_block[], _other_block[];
+extern const uint8_t _task_block[], _other_block[], _two_phase_block[];
 
 int main(void);
 void reset_handler(void);
@@ -96,6 +97,7 @@ int main(void) {
     rl_test_write("platform cortex-m7 mps2-an500\n");
     code = rl_test_run(_task_block, block_len(_task_block), _other_block,
                        block_len(_other_block));
+    code |= rl_two_phase_test_run(_two_phase_block, block_len(_two_phase_block));
     rl_test_write("STACK max ");
     rl_test_put_u32(deepest_total);
     rl_test_write("\nSTACK size ");

@@ -178,33 +178,21 @@ const fn fingerprint(shapes: &[(usize, usize)]) -> u64 {
 }
 
 /// The planner's layout fingerprint ([`Payload::LAYOUT`]).
-#[allow(clippy::indexing_slicing)]
-pub const LAYOUT: u64 = {
-    let shapes = [
-        (size_of::<FlightPlanner>(), align_of::<FlightPlanner>()),
-        (size_of::<Task<7, 4>>(), align_of::<Task<7, 4>>()),
-        (size_of::<Rollout<7, 4>>(), align_of::<Rollout<7, 4>>()),
-        (size_of::<Setpoints<7, 4>>(), align_of::<Setpoints<7, 4>>()),
-        (
-            size_of::<Multistart<7, 4>>(),
-            align_of::<Multistart<7, 4>>(),
-        ),
-        (size_of::<Cpso<4, 64>>(), align_of::<Cpso<4, 64>>()),
-        (size_of::<Swarm<4, 64>>(), align_of::<Swarm<4, 64>>()),
-        (size_of::<Plan<7, 4>>(), align_of::<Plan<7, 4>>()),
-        (size_of::<Outcome<7>>(), align_of::<Outcome<7>>()),
-        (size_of::<PlannerConfig>(), align_of::<PlannerConfig>()),
-        (size_of::<usize>(), 1usize.to_le() ^ 1),
-    ];
-    let mut h = FNV_OFFSET;
-    let mut i = 0;
-    while i < shapes.len() {
-        h = fnv_u64(h, shapes[i].0 as u64);
-        h = fnv_u64(h, shapes[i].1 as u64);
-        i += 1;
-    }
-    fnv_bytes(h, env!("CARGO_PKG_VERSION").as_bytes())
-};
+pub const LAYOUT: u64 = fingerprint(&[
+    (size_of::<FlightPlanner>(), align_of::<FlightPlanner>()),
+    (size_of::<Task<7, 4>>(), align_of::<Task<7, 4>>()),
+    (size_of::<Rollout<7, 4>>(), align_of::<Rollout<7, 4>>()),
+    (size_of::<Setpoints<7, 4>>(), align_of::<Setpoints<7, 4>>()),
+    (
+        size_of::<Multistart<7, 4>>(),
+        align_of::<Multistart<7, 4>>(),
+    ),
+    (size_of::<Cpso<4, 64>>(), align_of::<Cpso<4, 64>>()),
+    (size_of::<Swarm<4, 64>>(), align_of::<Swarm<4, 64>>()),
+    (size_of::<Plan<7, 4>>(), align_of::<Plan<7, 4>>()),
+    (size_of::<Outcome<7>>(), align_of::<Outcome<7>>()),
+    (size_of::<PlannerConfig>(), align_of::<PlannerConfig>()),
+]);
 
 /// The two-phase search's layout fingerprint ([`Payload::LAYOUT`]).
 pub const TWO_PHASE_LAYOUT: u64 = fingerprint(&[

@@ -271,15 +271,7 @@ fn rl_two_phase_names_what_is_wrong() {
             RL_E_NULL
         );
         // A two-phase stream is not a planner's, nor the stream of another search.
-        let mut p = Box::new(rl_planner::ZEROED);
-        assert_eq!(
-            rl_planner_init(&mut *p, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
-            RL_OK
-        );
-        assert_eq!(
-            rl_planner_load_block(&mut *p, one.as_ptr(), one.len()),
-            RL_OK
-        );
+        let p = loaded_planner(&one);
         assert_eq!(rl_setpoints_next(&mut *s, &*p, &mut sp), RL_E_MISMATCH);
         let mut other = Box::new(rl_two_phase::ZEROED);
         assert_eq!(rl_two_phase_init(&mut *other, RL_ABI_VERSION, size), RL_OK);
@@ -304,6 +296,21 @@ fn rl_two_phase_names_what_is_wrong() {
         }
     }
     assert_eq!(plan.converged, 1);
+}
+
+/// A fresh `rl_planner` with the single-phase `block` loaded.
+#[allow(unsafe_code)]
+fn loaded_planner(block: &[u8]) -> Box<rl_planner> {
+    let mut p = Box::new(rl_planner::ZEROED);
+    // SAFETY: `p` is a valid, exclusive rl_planner; the block is readable for its length.
+    unsafe {
+        assert_eq!(
+            rl_planner_init(&mut *p, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
+            RL_OK
+        );
+        assert_eq!(rl_planner_load_block(&mut *p, block.as_ptr(), block.len()), RL_OK);
+    }
+    p
 }
 
 /// A fresh, initialised `rl_two_phase` (boxed: 20 KB), with `block` loaded if given.
@@ -480,15 +487,7 @@ fn a_bad_two_phase_checkpoint_is_refused() {
         assert_eq!(rl_two_phase_step(&mut *fresh, 1, &mut plan), RL_E_NO_TASK);
         // A planner's checkpoint is not a search's, and a search's is not a planner's.
         let one = block("spec/tasks/paper.toml");
-        let mut p = Box::new(rl_planner::ZEROED);
-        assert_eq!(
-            rl_planner_init(&mut *p, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
-            RL_OK
-        );
-        assert_eq!(
-            rl_planner_load_block(&mut *p, one.as_ptr(), one.len()),
-            RL_OK
-        );
+        let p = loaded_planner(&one);
         let mut pbuf = vec![0u8; rl_checkpoint_size().max(len)];
         assert_eq!(
             rl_planner_checkpoint(&*p, pbuf.as_mut_ptr(), pbuf.len()),

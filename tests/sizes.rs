@@ -85,7 +85,7 @@ fn documented_two_phase_sizes() {
             ("Preshape<7>", 136),
             ("Demand", 40),
             ("TwoPhasePlan<7, 4>", 640),
-            ("TwoPhaseSearch<7, 4>", 20776),
+            ("TwoPhaseSearch<7, 4>", 20784),
         ]
     );
 }

@@ -310,3 +310,62 @@ fn a_robot_beyond_capacity_is_a_typed_error() {
     assert_eq!(search.reset(&task, &TwoPhaseConfig::reference(), 1), want);
     assert_eq!(search.step(10).map(|_| ()), Err(Error::NotInitialized));
 }
+
+/// Against the truth model (`[planner] refine_against = "truth"`), a start that meets the
+/// goal on the planner model is corrected until the truth model's end pose meets it: the
+/// plan's phase 2, flown again here on an independent truth model from `q_s`, ends within
+/// 1e-6 (its planner-model f is then the models' difference, about 1e-5), for one or two
+/// more rollouts than the planner-model plan; and the same bits from any slicing.
+/// Verifies RL-TWO-007.
+#[test]
+fn a_plan_against_the_truth_model_meets_the_goal_there() {
+    use reactionless::twophase::{TwoPhaseSearch, TwoPhaseStatus};
+    let task = joint_space_task(OFFSETS);
+    let planner = TwoPhaseConfig::reference();
+    let truth = TwoPhaseConfig {
+        against_truth: true,
+        ..planner
+    };
+    let flown = |p: &reactionless::twophase::TwoPhasePlan<7, 4>| {
+        let mut phase2 = task.clone();
+        phase2.move_start(&p.q_s).unwrap();
+        let mut model = TruthModel::new(&phase2, 10);
+        let o = phase2.rollout(&p.eta, &mut model).unwrap();
+        let e = model.end_pose().unwrap().error_to(phase2.target());
+        (o.f, e.norm(), model.max_angle())
+    };
+    for seed in 1..=3 {
+        let a = plan(&task, &planner, seed).unwrap();
+        let b = plan(&task, &truth, seed).unwrap();
+        assert_eq!(a.stop, TwoPhaseStop::Converged);
+        assert_eq!(b.stop, TwoPhaseStop::Converged, "seed {seed}: {b:?}");
+        let (fa, truth_fa, _) = flown(&a);
+        let (fb, truth_fb, base) = flown(&b);
+        assert!(
+            fa <= 1e-6 && truth_fa > 1e-6,
+            "seed {seed}: {fa:e} {truth_fa:e}"
+        );
+        assert!(truth_fb <= 1e-6, "seed {seed}: truth_f {truth_fb:e}");
+        assert!(
+            fb > 1e-6,
+            "seed {seed}: the planner model's f {fb:e} is the models' gap"
+        );
+        assert!(base < 0.01f64.to_radians());
+        assert_eq!(b.outcome.unwrap().f.to_bits(), fb.to_bits());
+        assert!(
+            b.rollouts > a.rollouts && b.rollouts <= a.rollouts + 3,
+            "seed {seed}: {} against {}",
+            b.rollouts,
+            a.rollouts
+        );
+        // Sliced into single units, the same plan.
+        let mut search = Box::new(TwoPhaseSearch::<7, 4>::IDLE);
+        search.reset(&task, &truth, seed).unwrap();
+        let sliced = loop {
+            if let TwoPhaseStatus::Finished(p) = search.step(1).unwrap() {
+                break p;
+            }
+        };
+        assert_eq!(format!("{sliced:?}"), format!("{b:?}"));
+    }
+}

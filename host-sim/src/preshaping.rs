@@ -121,7 +121,8 @@ fn phase2_text(lt: &LoadedTask, q_s_deg: &[f64], shift: &[f64; 3]) -> Result<Str
 }
 
 /// The core's two-phase settings of `lt`: `[preshape]`'s bounds, phase 2's success test
-/// (the refinement tolerance asked for, else σ_e), the planner's rollout budget and
+/// (the refinement tolerance asked for, else σ_e, on the model `[planner] refine_against`
+/// names), the planner's rollout budget and
 /// `[check]`'s base-disturbance limit. What `plan`, `campaign` and the flight block use.
 pub fn two_phase_config(
     lt: &LoadedTask,
@@ -129,11 +130,14 @@ pub fn two_phase_config(
     config: &PlannerConfig,
     asked: &Asked,
 ) -> reactionless::TwoPhaseConfig {
-    section.config(
-        asked.refine_tolerance.unwrap_or(asked.sigma_e),
-        config.max_rollouts,
-        lt.max_base_disturbance_deg(),
-    )
+    reactionless::TwoPhaseConfig {
+        against_truth: asked.against_truth(),
+        ..section.config(
+            asked.refine_tolerance.unwrap_or(asked.sigma_e),
+            config.max_rollouts,
+            lt.max_base_disturbance_deg(),
+        )
+    }
 }
 
 /// The core's two-phase plan of `lt` with the settings the task and flags ask for: the
@@ -261,7 +265,13 @@ pub fn plan<const N: usize, const K: usize>(
         write_bundle(&lt2, &sub, Some((config, asked)))?;
         sub.commit()?;
         let o = run.outcome;
-        converged = p.converged() && fits && o.f <= tolerance && o.phi == 0.0;
+        // On the model the goal was asked on (the truth model's end pose, or the planner's).
+        let f = if asked.against_truth() {
+            run.truth.f
+        } else {
+            o.f
+        };
+        converged = p.converged() && fits && f <= tolerance && o.phi == 0.0;
         phase2 = Some(Phase2Json {
             eta: p.eta.iter().flatten().copied().collect(),
             f: o.f,
@@ -344,10 +354,12 @@ fn human_summary(lt: &LoadedTask, j: &TwoPhaseJson, dir: &Path) -> String {
     if let Some(p2) = &j.phase2 {
         s.push_str(&format!(
             "\x20 phase 2 (free floating)        f = {} ({} m, {} deg)\n\
+             \x20   truth model                    truth_f = {}\n\
              \x20   base disturbance               {} deg (requirement ≤ {limit} deg)\n",
             number(p2.f),
             number(p2.position_error_m),
             number(p2.orientation_error_deg),
+            number(p2.truth_f),
             number(p2.base_disturbance_deg),
         ));
     }

@@ -542,6 +542,9 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
             max_rollouts: r.u32()?,
             margin,
             max_base_disturbance,
+            // The planner's refinement says which model phase 2's goal is on (as
+            // host-sim's `Asked::against_truth`: a refinement tolerance, on the truth).
+            against_truth: flag == 1 && refine_against == RefineAgainst::Truth,
         })
     } else {
         None

@@ -100,6 +100,9 @@ const STRETCHES: u32 = 4;
 /// sub-steps of the truth model (about 63,000 instructions on the Cortex-M7), so a unit
 /// costs about what one planner-model rollout of the reference task does (13.8 M).
 pub const TRUTH_STEPS_PER_UNIT: u32 = 200;
+/// Against the truth model ([`TwoPhaseConfig::against_truth`]): corrections of a start that
+/// met the goal on the planner model, each one flight of phase 2 on the truth model.
+pub const TRUTH_CORRECTIONS: u32 = 8;
 
 type Col = [f64; MAX_Z];
 type Res = [f64; MAX_R];
@@ -129,6 +132,11 @@ pub struct TwoPhaseConfig {
     /// Largest base rotation phase 2 may cause on the truth model (rad): a plan that meets
     /// the pose on the planner model but turns the base more is not accepted.
     pub max_base_disturbance: f64,
+    /// Phase 2's success test on the truth model's end pose (`truth_f ≤ tolerance`, spec
+    /// §11) instead of the planner model's: a start that meets the goal on the planner
+    /// model is corrected against the truth model (at most [`TRUTH_CORRECTIONS`] steps).
+    /// In a task block it is the planner's `refine_against` ([`crate::RefineAgainst`]).
+    pub against_truth: bool,
 }
 
 impl TwoPhaseConfig {
@@ -144,10 +152,11 @@ impl TwoPhaseConfig {
         max_rollouts: 0,
         margin: 0.0,
         max_base_disturbance: 0.0,
+        against_truth: false,
     };
 
-    /// The documented defaults: 2 °/s², 60 s, 20 N m s, 1 N m, 0.2 m or 10°, f ≤ 1e-6,
-    /// 8,040 rollouts, 0.005 rad.
+    /// The documented defaults: 2 °/s², 60 s, 20 N m s, 1 N m, 0.2 m or 10°, f ≤ 1e-6 on
+    /// the planner model, 8,040 rollouts, 0.005 rad.
     #[must_use]
     pub fn reference() -> Self {
         Self {
@@ -161,6 +170,7 @@ impl TwoPhaseConfig {
             max_rollouts: 8040,
             margin: 0.005,
             max_base_disturbance: 0.01f64.to_radians(),
+            against_truth: false,
         }
     }
 
@@ -429,6 +439,8 @@ pub struct TwoPhaseSearch<const N: usize, const K: usize> {
     /// The pool's next start.
     next: usize,
     refused_starts: u32,
+    /// Truth-model corrections of the start being accepted.
+    corrections: u32,
     refused: bool,
     /// Once finished: whether phase 2's task was moved to the plan's `q_s` (then
     /// [`TwoPhaseSearch::phase2_task`] is it), or could not be.
@@ -459,6 +471,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         next: 0,
         refused: false,
         refused_starts: 0,
+        corrections: 0,
         at: At::Idle,
         spent: 0,
         phase2_ready: None,
@@ -826,6 +839,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
             Ask::Done(met) => {
                 *point = *run.point();
                 *at = if *met { At::Accept } else { At::Consider };
+                self.corrections = 0;
             }
         }
     }
@@ -878,16 +892,83 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         let phase2 = &self.scratch.phase2;
         let Fly { rollout, truth, .. } = fly;
         let mut sink = |s: &Sample<N>| truth.push(phase2, &s.q, s.t);
-        let landed = match rollout.advance(phase2, TRUTH_STEPS_PER_UNIT, &mut sink) {
+        let o = match rollout.advance(phase2, TRUTH_STEPS_PER_UNIT, &mut sink) {
             Ok(Progress::Running { .. }) => return,
-            Ok(Progress::Done(o)) => self.best.landed(&self.config, fly, &o, &self.point),
-            Ok(Progress::Abandoned { .. }) | Err(_) => false,
+            Ok(Progress::Done(o)) => Some(o),
+            Ok(Progress::Abandoned { .. }) | Err(_) => None,
         };
+        if self.config.against_truth {
+            if let Some(o) = o {
+                if let Some(z) = self.truth_correction(&o) {
+                    // Not yet on the truth model's goal: fit phase 1 to the corrected
+                    // start and fly it again.
+                    self.point = z;
+                    self.at = At::Accept;
+                    return;
+                }
+            }
+        }
+        let At::Fly(fly) = &self.at else {
+            return;
+        };
+        let landed = o.is_some_and(|o| self.best.landed(&self.config, fly, &o, &self.point));
         if landed {
             self.at = At::Done(self.best.finish(&self.task, &self.config));
+        } else if self.config.against_truth && self.corrections > 0 {
+            // Corrected and still refused: the start ends where it got to.
+            self.at = At::Consider;
         } else {
             self.refuse();
         }
+    }
+
+    /// Against the truth model, the flight of the start at `point` just ended in `o`: the
+    /// corrected start if the truth model's end pose misses the goal, the base stayed put,
+    /// the planner-model path keeps the joint limits and the standoff, and corrections are
+    /// left. `z ← z + δ`, `δ = Jᵀ y`, `(J Jᵀ + μ I) y = −e`, with `e` the truth model's
+    /// pose error and `J` the pose rows of the start's last Jacobian (planner model,
+    /// Broyden-updated), `μ` 1e-12 of its largest column norm: the smallest change of
+    /// `[q_s; η]` that moves the planner model's end pose by `−e` to first order. The
+    /// models differ by the Euler path's discretisation, smoothly, so the corrections
+    /// contract quickly.
+    fn truth_correction(&mut self, o: &Outcome<N>) -> Option<Col> {
+        let At::Fly(fly) = &self.at else {
+            return None;
+        };
+        let phase2 = &self.scratch.phase2;
+        let e = fly.truth.end_pose(phase2)?.error_to(phase2.target());
+        let disturbance = fly.truth.max_angle();
+        if e.norm() <= self.config.tolerance
+            || fly.truth.error().is_some()
+            || disturbance.is_nan()
+            || disturbance > self.config.max_base_disturbance
+            || o.phi > 0.0
+            || standoff_shortfall(phase2.start_pose(), self.task.target(), &self.config) > 0.0
+            || self.corrections >= TRUTH_CORRECTIONS
+            || !self.run.has_jacobian()
+        {
+            return None;
+        }
+        self.corrections += 1;
+        let nz = N + 2 * K;
+        let lm = Lm {
+            nr: 6,
+            ..self.run.lm
+        };
+        let mut r = [0.0; MAX_R];
+        for (v, x) in r.iter_mut().zip(e.to_array()) {
+            *v = x;
+        }
+        let LmWork { jac, normal } = &mut self.scratch.work;
+        let (step, _) = lm.step(jac, normal, &r, 1e-12)?;
+        let mut z = self.point;
+        for (v, d) in z.iter_mut().zip(step.iter()).take(nz) {
+            *v += d;
+        }
+        if lm.sphere_from < nz {
+            normalise_from(&mut z, lm.sphere_from, nz);
+        }
+        Some(z)
     }
 
     /// A start that met the goal but was refused (phase 1's bounds, or the truth model):
@@ -1492,6 +1573,8 @@ struct LmRun {
     ref_merit: f64,
     ref_count: u32,
     wait: Wait,
+    /// A Jacobian of this run is in the work (differenced at least once).
+    jacobian: bool,
 }
 
 impl LmRun {
@@ -1515,6 +1598,7 @@ impl LmRun {
         ref_merit: f64::INFINITY,
         ref_count: 0,
         wait: Wait::First,
+        jacobian: false,
     };
 
     /// The point asked for ([`Ask::Eval`]), or where the run ended ([`Ask::Done`]).
@@ -1524,6 +1608,11 @@ impl LmRun {
             Wait::Trial(trial, _, _) => trial,
             Wait::First | Wait::Over => &self.z,
         }
+    }
+
+    /// Whether a Jacobian of this run is in the work ([`LmWork::jac`]).
+    fn has_jacobian(&self) -> bool {
+        self.jacobian
     }
 
     /// Ends the run at its last accepted point, without the evaluation it asked for.
@@ -1615,6 +1704,7 @@ impl LmRun {
     fn column(&mut self, work: &mut LmWork, c: usize, count: u32) -> Ask {
         if c >= self.lm.nz {
             self.fresh = true;
+            self.jacobian = true;
             self.rejects = 0;
             return self.trial(work, count);
         }
@@ -1789,6 +1879,17 @@ impl Lm {
 
 fn norm2(r: &Res) -> f64 {
     r.iter().fold(0.0, |s, v| s + v * v)
+}
+
+/// Scales `x[from..to]` to unit length (a zero part stays zero).
+fn normalise_from(x: &mut Col, from: usize, to: usize) {
+    let tail = x.get_mut(from..to).unwrap_or(&mut []);
+    let n = libm::sqrt(tail.iter().fold(0.0, |s, v| s + v * v));
+    if n > 0.0 {
+        for v in tail.iter_mut() {
+            *v /= n;
+        }
+    }
 }
 
 fn normalise(x: &mut Col, n: usize) {

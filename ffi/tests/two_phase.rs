@@ -102,7 +102,6 @@ fn a_two_phase_block_is_planned_by_rl_two_phase() {
             RL_BEYOND_REACH,
         ),
     ];
-    let mut t = Box::new(rl_two_phase::ZEROED);
     for (task, want) in cases {
         let two = block(task);
         let lt = host_sim::taskfile::load(&root.join(task)).unwrap();
@@ -110,20 +109,9 @@ fn a_two_phase_block_is_planned_by_rl_two_phase() {
             .unwrap();
         let mut plan = rl_two_phase_plan::ZEROED;
         let mut frames = 0u32;
-        // SAFETY: `t` is a valid, exclusive rl_two_phase; the block is readable for its length.
+        let mut t = search(Some(&two));
+        // SAFETY: `t` is an initialised search with the block loaded.
         let status = unsafe {
-            assert_eq!(
-                rl_two_phase_init(
-                    &mut *t,
-                    RL_ABI_VERSION,
-                    core::mem::size_of::<rl_two_phase>()
-                ),
-                RL_OK
-            );
-            assert_eq!(
-                rl_two_phase_load_block(&mut *t, two.as_ptr(), two.len()),
-                RL_OK
-            );
             loop {
                 frames += 1;
                 let s = rl_two_phase_step(&mut *t, 50, &mut plan);
@@ -308,7 +296,10 @@ fn loaded_planner(block: &[u8]) -> Box<rl_planner> {
             rl_planner_init(&mut *p, RL_ABI_VERSION, core::mem::size_of::<rl_planner>()),
             RL_OK
         );
-        assert_eq!(rl_planner_load_block(&mut *p, block.as_ptr(), block.len()), RL_OK);
+        assert_eq!(
+            rl_planner_load_block(&mut *p, block.as_ptr(), block.len()),
+            RL_OK
+        );
     }
     p
 }

@@ -758,7 +758,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         for v in x.iter_mut().take(2 * K) {
             *v = 2.0 * stream.uniform() - 1.0;
         }
-        normalise(x, 2 * K);
+        normalise(x, 0, 2 * K);
         if let Some(s) = pool.get_mut(*slot) {
             *s = ([0.0; MAX_Z], f64::INFINITY);
         }
@@ -937,11 +937,8 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
         };
         let phase2 = &self.scratch.phase2;
         let e = fly.truth.end_pose(phase2)?.error_to(phase2.target());
-        let disturbance = fly.truth.max_angle();
         if e.norm() <= self.config.tolerance
-            || fly.truth.error().is_some()
-            || disturbance.is_nan()
-            || disturbance > self.config.max_base_disturbance
+            || fly.base_disturbance(&self.config).is_none()
             || o.phi > 0.0
             || standoff_shortfall(phase2.start_pose(), self.task.target(), &self.config) > 0.0
             || self.corrections >= TRUTH_CORRECTIONS
@@ -966,7 +963,7 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
             *v += d;
         }
         if lm.sphere_from < nz {
-            normalise_from(&mut z, lm.sphere_from, nz);
+            normalise(&mut z, lm.sphere_from, nz);
         }
         Some(z)
     }
@@ -997,6 +994,15 @@ struct Fly<const N: usize, const K: usize> {
     truth: TruthState<N>,
     preshape: Preshape<N>,
     demand: Demand,
+}
+
+impl<const N: usize, const K: usize> Fly<N, K> {
+    /// The largest base rotation of the flight so far (rad), if the truth model met no
+    /// error and the base stayed within `c.max_base_disturbance`.
+    fn base_disturbance(&self, c: &TwoPhaseConfig) -> Option<f64> {
+        let d = self.truth.max_angle();
+        (self.truth.error().is_none() && !d.is_nan() && d <= c.max_base_disturbance).then_some(d)
+    }
 }
 
 /// How the search ends when it gives up: on phase 1's bounds if any start ended there.
@@ -1106,13 +1112,9 @@ impl<const N: usize, const K: usize> Best<N, K> {
     /// Phase 2 of `z` flown (`fly`, ending in `o`): kept as the converged plan if the base
     /// stayed within the limit on the truth model.
     fn landed(&mut self, c: &TwoPhaseConfig, fly: &Fly<N, K>, o: &Outcome<N>, z: &Col) -> bool {
-        let disturbance = fly.truth.max_angle();
-        if fly.truth.error().is_some()
-            || disturbance.is_nan()
-            || disturbance > c.max_base_disturbance
-        {
+        let Some(disturbance) = fly.base_disturbance(c) else {
             return false;
-        }
+        };
         self.base_disturbance = disturbance;
         self.z = *z;
         self.f = o.f;
@@ -1785,14 +1787,8 @@ impl LmRun {
             self.r = *rt;
             self.merit = mt;
             if self.lm.sphere_from < nz {
-                let tail = self.z.get_mut(self.lm.sphere_from..nz).unwrap_or(&mut []);
-                let n = libm::sqrt(tail.iter().fold(0.0, |s, v| s + v * v));
-                if n > 0.0 {
-                    for v in tail.iter_mut() {
-                        *v /= n;
-                    }
-                }
                 // Renormalising leaves r unchanged (η's scale is irrelevant).
+                normalise(&mut self.z, self.lm.sphere_from, nz);
             }
             if libm::sqrt(mt) <= 0.5 * libm::sqrt(self.ref_merit) {
                 self.ref_merit = mt;
@@ -1882,21 +1878,12 @@ fn norm2(r: &Res) -> f64 {
 }
 
 /// Scales `x[from..to]` to unit length (a zero part stays zero).
-fn normalise_from(x: &mut Col, from: usize, to: usize) {
-    let tail = x.get_mut(from..to).unwrap_or(&mut []);
-    let n = libm::sqrt(tail.iter().fold(0.0, |s, v| s + v * v));
+fn normalise(x: &mut Col, from: usize, to: usize) {
+    let part = x.get_mut(from..to).unwrap_or(&mut []);
+    let n = libm::sqrt(part.iter().fold(0.0, |s, v| s + v * v));
     if n > 0.0 {
-        for v in tail.iter_mut() {
+        for v in part.iter_mut() {
             *v /= n;
-        }
-    }
-}
-
-fn normalise(x: &mut Col, n: usize) {
-    let s = libm::sqrt(x.iter().take(n).fold(0.0, |s, v| s + v * v));
-    if s > 0.0 {
-        for v in x.iter_mut().take(n) {
-            *v /= s;
         }
     }
 }

@@ -7,6 +7,9 @@ free-amplitude family (issue #30, docs/twophase.md "Fixed start").
   random.Random(100 i + 1 or 2); only [target] and [motion] family change).
 - g/<robot>/moved1cm, moved5cm: the checked-in two-phase set g's perturbed targets with
   their [preshape] table removed (the start fixed) and the family set.
+- segments/<the above>: the same files with `[motion] segments` (docs/twophase.md
+  "Several segments"): 4 segments, or as many as the multistart's 32 unknowns hold for
+  the arm (2K·S ≤ 32: arm9 2; arm12, one segment, is left out).
 
 The same command always writes the same files. Replace `free_amplitude` by `paper` in the
 written files (sed) for the paper family's figures on the same targets.
@@ -88,5 +91,26 @@ def g_set():
                 write(dst, t)
 
 
+SEGMENTS = {"chaser7": 4, "arm6": 4, "arm9": 2}
+
+
+def segments_set():
+    for root, _, names in sorted(os.walk(OUT)):
+        rel = os.path.relpath(root, OUT)
+        parts = rel.split(os.sep)
+        if parts[0] not in ("ref", "g") or not names:
+            continue
+        robot = parts[1] if parts[0] == "g" else "chaser7"
+        if robot not in SEGMENTS:
+            continue
+        for name in sorted(names):
+            src = os.path.join(root, name)
+            dst = os.path.join(OUT, "segments", rel, name)
+            t = rebase_urdf(open(src).read(), root, os.path.dirname(dst))
+            t = t.replace(FAMILY, FAMILY + "\nsegments = %d" % SEGMENTS[robot], 1)
+            write(dst, t)
+
+
 reference_set()
 g_set()
+segments_set()

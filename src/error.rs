@@ -106,6 +106,8 @@ pub enum Param {
     BaseDisturbance,
     /// Number of joints N of the robot (a capacity of the two-phase search).
     Joints,
+    /// Number of segments of a motion ([`crate::Motion::with_segments`]).
+    Segments,
 }
 
 impl Param {
@@ -154,6 +156,7 @@ impl Param {
             Param::StandoffDistance => "preshape.standoff_m",
             Param::StandoffAngle => "preshape.standoff_deg",
             Param::BaseDisturbance => "check.max_base_disturbance_deg",
+            Param::Segments => "motion.segments",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -197,6 +200,23 @@ pub enum BlockFault {
     Truncated,
     /// A field holds a value outside its encoding (e.g. a refine flag other than 0 or 1).
     Field,
+}
+
+/// What does not (yet) take a motion of several segments ([`crate::Motion::with_segments`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum NeedsOneSegment {
+    /// The paper's family (eq. 14 normalises η's direction; segments free each amplitude).
+    PaperFamily,
+    /// The C-PSO strategy (it searches the paper's `2K` parameters).
+    Cpso,
+    /// The two-phase search (phase 2 is one segment).
+    TwoPhase,
+    /// The refinement against the truth model (it steps on one segment's sphere).
+    TruthRefinement,
+    /// Several rollouts side by side ([`crate::batch::Batch`]).
+    Lanes,
 }
 
 /// Everything that can go wrong, as a small `Copy` value. A variant that breaks a limit
@@ -290,6 +310,13 @@ pub enum Error {
     NotTwoPhase,
     /// A re-timing margin factor above 1 (it must lie in (0, 1]).
     MarginAboveOne,
+    /// The `t_f/dt` steps do not split into `segments` equal segments.
+    SegmentsUneven {
+        /// The segment count asked for.
+        segments: u32,
+    },
+    /// A motion of several segments was given to something that plans or rolls out one.
+    NeedsOneSegment(NeedsOneSegment),
     /// A re-timing grid of fewer than `min` points ([`crate::retime::MIN_GRID`]).
     GridTooSmall {
         /// The fewest grid points.
@@ -380,6 +407,7 @@ impl fmt::Display for Param {
             Param::StandoffAngle => f.write_str("standoff angle"),
             Param::BaseDisturbance => f.write_str("base disturbance limit"),
             Param::Joints => f.write_str("number of joints"),
+            Param::Segments => f.write_str("segment count"),
         }
     }
 }
@@ -446,6 +474,27 @@ impl fmt::Display for Error {
                 f.write_str("a single-phase task block (no two-phase settings): plan it with the planner")
             }
             Error::MarginAboveOne => f.write_str("retime margin must lie in (0, 1]"),
+            Error::SegmentsUneven { segments } => write!(
+                f,
+                "the t_f/dt integration steps do not split into {segments} equal segments"
+            ),
+            Error::NeedsOneSegment(what) => write!(
+                f,
+                "motion.segments above 1 {}",
+                match what {
+                    NeedsOneSegment::PaperFamily => {
+                        "needs motion.family = \"free_amplitude\" (the paper's family is one segment)"
+                    }
+                    NeedsOneSegment::Cpso => {
+                        "needs planner.strategy = \"multistart\" (cpso searches one segment)"
+                    }
+                    NeedsOneSegment::TwoPhase => "is not taken by two-phase tasks (phase 2 is one segment)",
+                    NeedsOneSegment::TruthRefinement => {
+                        "is not taken by the refinement against the truth model"
+                    }
+                    NeedsOneSegment::Lanes => "is not taken by the rollout lanes",
+                }
+            ),
             Error::GridTooSmall { min } => {
                 write!(f, "retime grid must have at least {min} points")
             }

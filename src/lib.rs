@@ -82,7 +82,7 @@ pub use config::{
 };
 pub use cpso::Cpso;
 pub use digest::TrajectoryDigest;
-pub use error::{BlockFault, Body, Error, Param, RankLoss};
+pub use error::{BlockFault, Body, Error, NeedsOneSegment, Param, RankLoss};
 pub use execute::Setpoints;
 pub use geometry::{Pose, PoseError, Sym3};
 pub use kinematics::{Frames, IDENTITY_WXYZ, LinkFrame};
@@ -100,7 +100,10 @@ pub use rollout::{Outcome, Progress, Rollout, Sample, Sink};
 pub use strategy::Search;
 pub use swarm::{Cost, Swarm};
 pub use task::Task;
-pub use trajectory::{Family, MAX_DEGREE, MAX_STEPS, Motion, TimeLaw, eta_pairs};
+pub use trajectory::{
+    Eta, Family, MAX_DEGREE, MAX_SEGMENTS, MAX_STEPS, Motion, TimeLaw, eta_flat, eta_from_flat,
+    eta_pairs, one_segment,
+};
 pub use truth::{TRUTH_SUBSTEPS, TruthModel, TruthState};
 pub use twophase::{
     TwoPhaseConfig, TwoPhasePlan, TwoPhaseSearch, TwoPhaseStage, TwoPhaseStatus, TwoPhaseStop,

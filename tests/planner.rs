@@ -43,6 +43,7 @@ fn bits(p: &Plan<7, 4>) -> Vec<u64> {
     p.eta
         .iter()
         .flatten()
+        .flatten()
         .chain(&o.q_final)
         .chain(&o.joint_min)
         .chain(&o.joint_max)
@@ -313,7 +314,7 @@ fn exhausted_without_a_feasible_point_reports_the_least_violating() {
     let mut evaluated = Vec::new();
     loop {
         let c: Candidate<4> = Optimizer::<7, 4>::candidate(&*cpso);
-        let o = task.rollout(&c.eta, &mut ()).unwrap();
+        let o = task.rollout_of(&c.eta, &mut ()).unwrap();
         evaluated.push((c.eta, o));
         if let Next::Done(stop) = cpso.absorb(&Evaluation::Finished(o), &mut stream, &mut ()) {
             assert_eq!(stop, Stop::Exhausted);
@@ -334,7 +335,7 @@ fn exhausted_without_a_feasible_point_reports_the_least_violating() {
     assert_eq!(plan.rollouts, 6 * 4);
     assert_eq!(plan.eta, *eta);
     assert_eq!(plan.outcome, *least);
-    assert_eq!(task.rollout(&plan.eta, &mut ()).unwrap(), plan.outcome);
+    assert_eq!(task.rollout_of(&plan.eta, &mut ()).unwrap(), plan.outcome);
 }
 
 /// m_max = 2 and an unreachable tolerance: exhausted after generation 2 (120 rollouts),
@@ -518,7 +519,7 @@ fn reference_task_converges_for_seeds_1_to_10_and_refines_below_1e_6() {
         );
         // The truth model: the base barely moves.
         let mut truth = TruthModel::new(&task, 10);
-        let again = task.rollout(&plan.eta, &mut truth).unwrap();
+        let again = task.rollout_of(&plan.eta, &mut truth).unwrap();
         assert_eq!(again, plan.outcome, "the plan's outcome is reproducible");
         let deg = truth.max_angle().to_degrees();
         assert!(deg < 0.01, "seed {seed}: base disturbance {deg}°");
@@ -542,9 +543,9 @@ fn streamed_setpoints_are_the_evaluated_rollout_bit_for_bit() {
     let plan = plan_of(&s);
     // Reference stream: a plain rollout with a sink.
     let mut reference = Vec::new();
-    task.rollout(&plan.eta, &mut |s: &Sample<7>| reference.push(*s))
+    task.rollout_of(&plan.eta, &mut |s: &Sample<7>| reference.push(*s))
         .unwrap();
-    let mut sp = Setpoints::new(&task, &plan.eta).unwrap();
+    let mut sp = Setpoints::of(&task, &plan.eta).unwrap();
     let mut k = 0;
     while let Some(s) = sp.next(&task).unwrap() {
         assert_eq!(s, reference[k], "setpoint {k}");

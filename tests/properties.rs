@@ -328,7 +328,7 @@ proptest! {
         if let Ok(Status::Finished(p)) = whole {
             let o = &p.outcome;
             let scalars = [o.f, o.phi, o.g, p.search_f];
-            for v in p.eta.iter().flatten().chain(&o.q_final).chain(&o.end_pose.position).chain(&scalars) {
+            for v in p.eta[0].iter().flatten().chain(&o.q_final).chain(&o.end_pose.position).chain(&scalars) {
                 prop_assert!(v.is_finite(), "non-finite value in the plan");
             }
             prop_assert!(o.max_abs_qd <= task.robot().qd_max());

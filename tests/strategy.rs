@@ -46,7 +46,7 @@ fn the_default_multistart_converges_on_the_reference_task() {
         let plan = finish(&mut p, u32::MAX);
         assert_eq!(plan.stop, Stop::Converged, "seed {seed}");
         assert_eq!(plan.strategy, Strategy::Multistart);
-        let again = task.rollout(&plan.eta, &mut ()).unwrap();
+        let again = task.rollout_of(&plan.eta, &mut ()).unwrap();
         assert_eq!(again, plan.outcome);
         assert!(again.f <= 0.05 && again.phi == 0.0);
         assert_eq!(plan.first_hit, Some(plan.rollouts));
@@ -100,7 +100,7 @@ fn refinement_against_the_truth_reaches_1e_9() {
         let r = plan.refine.unwrap();
         assert_eq!(r.stop, RefineStop::Reached, "{strategy:?}: {r:?}");
         let mut truth = TruthModel::new(&task, 10);
-        let again = task.rollout(&plan.eta, &mut truth).unwrap();
+        let again = task.rollout_of(&plan.eta, &mut truth).unwrap();
         assert_eq!(again, plan.outcome);
         let truth_f = truth.end_pose().unwrap().error_to(task.target()).norm();
         assert!(truth_f <= 1e-9, "{strategy:?}: truth_f {truth_f}");
@@ -207,7 +207,7 @@ proptest! {
         let mut p: Box<Planner<6, 3, 16>> = Box::new(Planner::new(task.clone(), config).unwrap());
         let plan = finish(&mut p, 777);
         prop_assert!(plan.rollouts <= 600);
-        let again = task.rollout(&plan.eta, &mut ()).unwrap();
+        let again = task.rollout_of(&plan.eta, &mut ()).unwrap();
         prop_assert_eq!(again, plan.outcome);
         if plan.converged() {
             prop_assert!(again.phi == 0.0 && again.f <= config.tolerance);

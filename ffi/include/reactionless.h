@@ -30,7 +30,7 @@
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 3
+#define RL_ABI_VERSION 4
 
 /*
  Joints of the flight robot (N).
@@ -38,20 +38,31 @@
 #define RL_JOINTS 7
 
 /*
- Entries of η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
+ Entries of one segment's η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
  */
 #define RL_ETA_LEN 8
+
+/*
+ Most segments of a motion (`[motion] segments`).
+ */
+#define RL_MAX_SEGMENTS 4
+
+/*
+ Entries of a plan's η ([`rl_plan`]): `RL_ETA_LEN * RL_MAX_SEGMENTS`, one segment's after
+ the other.
+ */
+#define RL_PLAN_ETA_LEN 32
 
 /*
  Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_PLANNER_WORDS 3120
+#define RL_PLANNER_WORDS 4352
 
 /*
  Words (u64) of stream storage inside [`rl_setpoints`].
  */
-#define RL_SETPOINTS_WORDS 192
+#define RL_SETPOINTS_WORDS 224
 
 /*
  Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at
@@ -65,7 +76,7 @@
  Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_TWO_PHASE_WORDS 2600
+#define RL_TWO_PHASE_WORDS 2688
 
 /*
  Bytes that always hold a two-phase checkpoint of this ABI version
@@ -109,9 +120,14 @@ typedef struct rl_planner {
  */
 typedef struct rl_plan {
     /*
-     η: `a1, b1, a2, b2, …`.
+     η: `a1, b1, a2, b2, …` of each segment in turn (`RL_ETA_LEN * segments` entries;
+     the rest are 0).
      */
-    double eta[RL_ETA_LEN];
+    double eta[RL_PLAN_ETA_LEN];
+    /*
+     Segments of the motion (1 unless the task block asks for more).
+     */
+    uint32_t segments;
     /*
      Pose error norm `f` of the plan's rollout (m and rad mixed, as in the paper).
      */

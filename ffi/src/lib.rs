@@ -60,7 +60,7 @@ pub use two_phase::{
 use core::ffi::c_char;
 use core::mem::{align_of, size_of};
 use reactionless::block::decode;
-use reactionless::{BlockFault, Error, Plan, Planner, Setpoints, Status, Stop};
+use reactionless::{BlockFault, Error, Plan, Planner, Setpoints, Status, Stop, eta_flat};
 
 /// The flight planner: 7 joints, null-space dimension 4, swarm capacity 64.
 pub type FlightPlanner = Planner<7, 4, 64>;
@@ -68,16 +68,21 @@ pub type FlightPlanner = Planner<7, 4, 64>;
 pub type FlightSetpoints = Setpoints<7, 4>;
 
 /// Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
-pub const RL_ABI_VERSION: u32 = 3;
+pub const RL_ABI_VERSION: u32 = 4;
 /// Joints of the flight robot (N).
 pub const RL_JOINTS: usize = 7;
-/// Entries of η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
+/// Entries of one segment's η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
 pub const RL_ETA_LEN: usize = 8;
+/// Most segments of a motion (`[motion] segments`).
+pub const RL_MAX_SEGMENTS: usize = 4;
+/// Entries of a plan's η ([`rl_plan`]): `RL_ETA_LEN * RL_MAX_SEGMENTS`, one segment's after
+/// the other.
+pub const RL_PLAN_ETA_LEN: usize = 32;
 /// Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
 /// target, with headroom so that a small growth of the core keeps the ABI.
-pub const RL_PLANNER_WORDS: usize = 3120;
+pub const RL_PLANNER_WORDS: usize = 4352;
 /// Words (u64) of stream storage inside [`rl_setpoints`].
-pub const RL_SETPOINTS_WORDS: usize = 192;
+pub const RL_SETPOINTS_WORDS: usize = 224;
 /// Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at
 /// most this), for sizing a static buffer or a CDS block at compile time.
 pub const RL_CHECKPOINT_CAPACITY: usize = RL_PLANNER_WORDS * 8 + 64;
@@ -172,6 +177,8 @@ const _: () = assert!(align_of::<FlightPlanner>() <= align_of::<u64>());
 const _: () = assert!(size_of::<FlightSetpoints>() <= RL_SETPOINTS_WORDS * 8);
 const _: () = assert!(align_of::<FlightSetpoints>() <= align_of::<u64>());
 const _: () = assert!(RL_ETA_LEN == 2 * (RL_JOINTS - 3));
+const _: () = assert!(RL_PLAN_ETA_LEN == RL_ETA_LEN * RL_MAX_SEGMENTS);
+const _: () = assert!(RL_MAX_SEGMENTS == reactionless::MAX_SEGMENTS);
 const _: () = assert!(checkpoint::LEN <= RL_CHECKPOINT_CAPACITY);
 
 /// A planner in caller-owned storage (static app data). Initialise with
@@ -206,8 +213,11 @@ pub struct rl_setpoints {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct rl_plan {
-    /// η: `a1, b1, a2, b2, …`.
-    pub eta: [f64; RL_ETA_LEN],
+    /// η: `a1, b1, a2, b2, …` of each segment in turn (`RL_ETA_LEN * segments` entries;
+    /// the rest are 0).
+    pub eta: [f64; RL_PLAN_ETA_LEN],
+    /// Segments of the motion (1 unless the task block asks for more).
+    pub segments: u32,
     /// Pose error norm `f` of the plan's rollout (m and rad mixed, as in the paper).
     pub f: f64,
     /// Constraint violation Φ (rad); 0 when every joint limit holds.
@@ -249,7 +259,8 @@ pub struct rl_setpoint {
 impl rl_plan {
     /// All zero.
     pub const ZEROED: Self = Self {
-        eta: [0.0; RL_ETA_LEN],
+        eta: [0.0; RL_PLAN_ETA_LEN],
+        segments: 0,
         f: 0.0,
         phi: 0.0,
         iterations: 0,
@@ -264,13 +275,14 @@ impl rl_plan {
         end_quat_wxyz: [0.0; 4],
     };
 
-    fn of(p: &Plan<7, 4>) -> Self {
-        let mut eta = [0.0; RL_ETA_LEN];
-        for (d, s) in eta.iter_mut().zip(p.eta.iter().flatten()) {
-            *d = *s;
+    fn of(p: &Plan<7, 4>, segments: u32) -> Self {
+        let mut eta = [0.0; RL_PLAN_ETA_LEN];
+        for (d, s) in eta.iter_mut().zip(eta_flat(&p.eta, segments)) {
+            *d = s;
         }
         Self {
             eta,
+            segments,
             f: p.outcome.f,
             phi: p.outcome.phi,
             iterations: p.iterations,
@@ -359,7 +371,7 @@ impl rl_planner {
         match planner.step(budget, &mut ()) {
             Ok(Status::Running(_)) => RL_RUNNING,
             Ok(Status::Finished(p)) => {
-                *plan = rl_plan::of(&p);
+                *plan = rl_plan::of(&p, planner.task().motion().segments());
                 match p.stop {
                     Stop::Converged => RL_CONVERGED,
                     Stop::Exhausted => RL_EXHAUSTED,
@@ -637,7 +649,7 @@ pub unsafe extern "C" fn rl_setpoints_init(
     let Some(plan) = planner.result() else {
         return RL_E_NO_PLAN;
     };
-    let Ok(stream) = FlightSetpoints::new(planner.task(), &plan.eta) else {
+    let Ok(stream) = FlightSetpoints::of(planner.task(), &plan.eta) else {
         return RL_E_STREAM;
     };
     // SAFETY: `s` is non-NULL and, by the contract, valid for writes of one rl_setpoints;

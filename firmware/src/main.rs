@@ -29,7 +29,10 @@ use embedded_hal::digital::OutputPin;
 use reactionless::block::{RetimeSettings, decode};
 use reactionless::retime::{self, GridPoint, Limits, Stream};
 use reactionless::twophase::{TwoPhaseConfig, TwoPhasePlan, TwoPhaseSearch, TwoPhaseStatus};
-use reactionless::{Error, Plan, Planner, Progress, Rollout, Status, Task, TrajectoryDigest};
+use reactionless::{
+    Error, Eta, Plan, Planner, Progress, Rollout, Status, Task, TrajectoryDigest, eta_flat,
+    one_segment,
+};
 
 /// The flight robot's joint count and null-space dimension.
 const N: usize = 7;
@@ -152,7 +155,10 @@ fn run() -> Result<(), Error> {
     let (plan, frames) = plan(planner, frame_budget)?;
     measure(planner.task(), &plan, frames)?;
     match retime {
-        Some(settings) => retime_and_stream(planner.task(), &plan.eta, &settings),
+        Some(settings) => {
+            let [first, ..] = &plan.eta;
+            retime_and_stream(planner.task(), first, &settings)
+        }
         None => Ok(()),
     }
 }
@@ -216,7 +222,7 @@ fn plan_two_phase(
     match &p.outcome {
         Some(outcome) => report(
             task,
-            &p.eta,
+            &one_segment(p.eta),
             outcome,
             Counts {
                 converged,
@@ -359,16 +365,16 @@ struct Counts {
 #[inline(never)]
 fn report(
     task: &Task<N, K>,
-    eta: &[[f64; 2]; K],
+    eta: &Eta<K>,
     o: &reactionless::Outcome<N>,
     c: Counts,
 ) -> Result<(), Error> {
     rl_mark_rollout_begin();
-    let again = task.rollout(eta, &mut ())?;
+    let again = task.rollout_of(eta, &mut ())?;
     rl_mark_rollout_end();
     let mut digest = TrajectoryDigest::new();
-    task.rollout(eta, &mut digest)?;
-    let mut r = Rollout::new(task, eta)?;
+    task.rollout_of(eta, &mut digest)?;
+    let mut r = Rollout::of(task, eta)?;
     r.advance(task, TIMED_STEP, &mut ())?;
     rl_mark_step_begin();
     let p = r.advance(task, 1, &mut ())?;
@@ -388,7 +394,7 @@ fn report(
         digest.value(),
         same
     );
-    for (i, v) in eta.iter().flatten().enumerate() {
+    for (i, v) in eta_flat(eta, task.motion().segments()).enumerate() {
         defmt::println!("ETA {=usize} {=u64:#018x}", i, v.to_bits());
     }
     for (i, v) in o

@@ -239,7 +239,7 @@ fn proto<const N: usize, const K: usize>(
         }
     };
     let mut x0 = X::zeros();
-    for (i, v) in plan.eta.iter().flatten().enumerate() {
+    for (i, v) in plan.eta[0].iter().flatten().enumerate() {
         x0[i] = *v;
     }
     let mut line = format!(

@@ -186,7 +186,7 @@ fn diagnose<const N: usize, const K: usize>(
         trials.last().map_or(f64::NAN, |t| t.1),
     );
     // Jacobians at the plan's η (the Refiner's step).
-    let x: Vec<f64> = plan.eta.iter().flatten().copied().collect();
+    let x: Vec<f64> = plan.eta[0].iter().flatten().copied().collect();
     let h = 1e-7 * x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let ep = e_planner(&task, &x);
     let (et, _) = e_truth(&task, &x);

@@ -9,7 +9,9 @@
 use crate::error::CliError;
 use crate::taskfile::Overrides;
 use crate::urdf::{self, Chain};
-use reactionless::{Error as CoreError, Family, Param, RefineAgainst, Strategy, eta_pairs};
+use reactionless::{
+    Error as CoreError, Eta, Family, Param, RefineAgainst, Strategy, eta_from_flat,
+};
 use std::path::PathBuf;
 
 /// A comma-separated list of numbers (negative values allowed: `--q-deg -90,45,0`).
@@ -206,10 +208,23 @@ pub fn parse_refine_against(s: &str) -> Result<RefineAgainst, String> {
 }
 
 /// η from `--eta` as pairs, every problem named.
-pub fn parse_eta<const K: usize>(eta: &[f64]) -> Result<[[f64; 2]; K], CliError> {
-    eta_pairs::<K>(eta).map_err(|_| {
+/// η of a motion of `segments` segments from its flat form (`2K·segments` values,
+/// [`reactionless::eta_flat`]).
+///
+/// # Errors
+/// The wrong number of values, named with what the task needs.
+pub fn parse_eta<const K: usize>(eta: &[f64], segments: u32) -> Result<Eta<K>, CliError> {
+    eta_from_flat::<K>(eta, segments).map_err(|_| {
+        let per = if segments == 1 {
+            String::new()
+        } else {
+            format!(
+                " per segment, {} for its {segments} segments",
+                2 * K * segments as usize
+            )
+        };
         CliError::input(format!(
-            "--eta has {} values; this robot needs 2K = {} (a1,b1,...,a{K},b{K})",
+            "--eta has {} values; this task needs 2K = {}{per} (a1,b1,...,a{K},b{K})",
             eta.len(),
             2 * K
         ))

@@ -13,8 +13,8 @@ use crate::plots::{self, PlotData};
 use crate::taskfile::{self, LoadedTask};
 use crate::version::Build;
 use reactionless::{
-    IDENTITY_WXYZ, Outcome, Pose, Rollout, Sample, Sink, TRUTH_SUBSTEPS, Task, TrajectoryDigest,
-    TruthModel,
+    Eta, IDENTITY_WXYZ, Outcome, Pose, Rollout, Sample, Sink, TRUTH_SUBSTEPS, Task,
+    TrajectoryDigest, TruthModel, eta_flat,
 };
 use serde::{Deserialize, Serialize};
 
@@ -140,12 +140,12 @@ pub struct TruthReport {
 /// if given, and keeps the samples if `keep` is set.
 pub fn write_rollout<const N: usize, const K: usize>(
     task: &Task<N, K>,
-    eta: &[[f64; 2]; K],
+    eta: &Eta<K>,
     dir: Option<&OutDir>,
     keep: bool,
 ) -> Result<RolloutRun<N>, CliError> {
     // η first (a bad one is the caller's input), then the rollout (a failure is a result).
-    Rollout::new(task, eta).map_err(crate::args::eta_error)?;
+    Rollout::of(task, eta).map_err(crate::args::eta_error)?;
     let mut csv = match dir {
         Some(d) => Some(CsvSink::create(&d.path("trajectory.csv"), N)?),
         None => None,
@@ -173,7 +173,7 @@ pub fn write_rollout<const N: usize, const K: usize>(
         }
     };
     let outcome = task
-        .rollout(eta, &mut sink)
+        .rollout_of(eta, &mut sink)
         .or_failed(|| "rollout failed")?;
     if let Some(c) = csv {
         c.finish()?;
@@ -296,13 +296,13 @@ pub fn write_figures<const N: usize, const K: usize>(
 /// `summary.json` of a finished rollout.
 pub fn summary<const N: usize, const K: usize>(
     task: &Task<N, K>,
-    eta: &[[f64; 2]; K],
+    eta: &Eta<K>,
     o: &Outcome<N>,
     truth: &TruthReport,
 ) -> Summary {
     let m = task.motion();
     Summary {
-        eta: eta.iter().flatten().copied().collect(),
+        eta: eta_flat(eta, m.segments()).collect(),
         q_final: o.q_final.to_vec(),
         end_pose: (&o.end_pose).into(),
         f: o.f,

@@ -93,6 +93,7 @@ pub fn task_block_retimed(
         dt_s: lt.file.motion.dt_s,
         n: lt.file.motion.n,
         family: lt.file.motion.family,
+        segments: lt.file.motion.segments,
         planner,
         retime,
         two_phase,

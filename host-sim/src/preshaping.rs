@@ -26,7 +26,7 @@ use reactionless::twophase::{
     TwoPhasePlan, TwoPhaseSearch, TwoPhaseStage, TwoPhaseStatus, TwoPhaseStop, fit_preshape,
     plan as plan_two_phase,
 };
-use reactionless::{Frames, Momentum, PlannerConfig, Sample};
+use reactionless::{Frames, Momentum, PlannerConfig, Sample, one_segment};
 use serde::Serialize;
 use std::path::Path;
 
@@ -257,10 +257,10 @@ pub fn plan<const N: usize, const K: usize>(
         let lt2 = taskfile::from_texts(&lt.path, &text, &lt.urdf_text)?;
         let task2 = lt2.task::<N, K>()?;
         let sub = OutDir::create(&dir.path(PHASE2_DIR))?;
-        let run = write_rollout(&task2, &p.eta, Some(&sub), false)?;
+        let run = write_rollout(&task2, &one_segment(p.eta), Some(&sub), false)?;
         sub.write_json(
             "summary.json",
-            &summary(&task2, &p.eta, &run.outcome, &run.truth),
+            &summary(&task2, &one_segment(p.eta), &run.outcome, &run.truth),
         )?;
         write_bundle(&lt2, &sub, Some((config, asked)))?;
         sub.commit()?;
@@ -389,7 +389,7 @@ pub fn plan_in_memory<const N: usize, const K: usize>(
             task2
                 .move_start(&p.q_s)
                 .map_err(|e| CliError::internal(format!("phase 2's start: {e}")))?;
-            Some(write_rollout(&task2, &p.eta, None, false)?.truth)
+            Some(write_rollout(&task2, &one_segment(p.eta), None, false)?.truth)
         }
         None => None,
     };

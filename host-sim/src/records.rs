@@ -21,7 +21,7 @@ use crate::drive::{self, HOST_CAPACITY};
 use crate::error::{CliError, Context};
 use crate::taskfile::{LoadedTask, Overrides};
 use crate::version::Build;
-use reactionless::TrajectoryDigest;
+use reactionless::{TrajectoryDigest, eta_flat};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -231,7 +231,7 @@ pub fn outputs_of<const N: usize, const K: usize>(
     let p = drive::plan::<N, K>(lt, config, false)?.plan;
     let mut digest = TrajectoryDigest::new();
     let again = task
-        .rollout(&p.eta, &mut digest)
+        .rollout_of(&p.eta, &mut digest)
         .or_failed(|| "rollout failed")?;
     if again != p.outcome {
         return Err(CliError::internal(
@@ -246,7 +246,9 @@ pub fn outputs_of<const N: usize, const K: usize>(
             rollouts: p.rollouts,
             stagnation_events: p.stagnation_events,
             restarts: p.restarts,
-            eta_bits: p.eta.iter().flatten().map(|v| bits(*v)).collect(),
+            eta_bits: eta_flat(&p.eta, task.motion().segments())
+                .map(bits)
+                .collect(),
             f_bits: bits(o.f),
             end_pose_bits: PoseBits {
                 position: o.end_pose.position.iter().map(|v| bits(*v)).collect(),
@@ -254,7 +256,7 @@ pub fn outputs_of<const N: usize, const K: usize>(
             },
             trajectory_samples: digest.samples(),
             trajectory_digest: format!("{:#018x}", digest.value()),
-            eta: p.eta.iter().flatten().copied().collect(),
+            eta: eta_flat(&p.eta, task.motion().segments()).collect(),
             f: o.f,
             two_phase: None,
         },

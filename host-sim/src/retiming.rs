@@ -18,7 +18,7 @@ use crate::taskfile::{self, BUNDLE_TASK, BUNDLE_URDF, LoadedTask};
 use crate::version::Build;
 use reactionless::TRUTH_SUBSTEPS;
 use reactionless::retime::{self, GridPoint, Limits, Setpoint, Stream};
-use reactionless::{IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel};
+use reactionless::{Eta, IDENTITY_WXYZ, Task, TrajectoryDigest, TruthModel, eta_flat};
 use serde::{Deserialize, Serialize};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -90,11 +90,18 @@ pub struct Retimed<const N: usize> {
 /// limits and `margin`.
 pub fn compute<const N: usize, const K: usize>(
     task: &Task<N, K>,
-    eta: &[[f64; 2]; K],
+    eta: &Eta<K>,
     qdd_max_deg: &[f64; N],
     grid: u32,
     margin: f64,
 ) -> Result<Retimed<N>, CliError> {
+    let [eta, ..] = eta;
+    if task.motion().segments() > 1 {
+        return Err(CliError::input(format!(
+            "re-timing a motion of {} segments is not supported yet: the path rests at each junction, and the re-timing needs a path that keeps moving",
+            task.motion().segments()
+        )));
+    }
     let qd = task.robot().desc().joints.map(|j| j.velocity);
     let limits =
         Limits::new(qd, qdd_max_deg.map(f64::to_radians), margin).map_err(|e| match e.param() {
@@ -248,7 +255,7 @@ pub fn max_abs<const N: usize>(
 pub fn write<const N: usize, const K: usize>(
     lt: &LoadedTask,
     task: &Task<N, K>,
-    eta: &[[f64; 2]; K],
+    eta: &Eta<K>,
     qdd_max_deg: &[f64; N],
     grid: u32,
     margin: f64,
@@ -281,7 +288,7 @@ pub fn write<const N: usize, const K: usize>(
     let end = task.end_pose(&last.q, IDENTITY_WXYZ);
     let dt = task.motion().dt();
     let summary = RetimeSummary {
-        eta: eta.iter().flatten().copied().collect(),
+        eta: eta_flat(eta, task.motion().segments()).collect(),
         duration_s: last.t,
         optimal_duration_s: r.optimal_duration_s,
         original_duration_s: task.motion().tf(),
@@ -493,7 +500,7 @@ fn write_dir<const N: usize, const K: usize>(
     plots: bool,
 ) -> Result<(RetimeSummary, PathBuf), CliError> {
     let task = lt.task::<N, K>()?;
-    let eta = crate::args::parse_eta::<K>(eta)?;
+    let eta = crate::args::parse_eta::<K>(eta, task.motion().segments())?;
     let qdd = lt.qdd_max_deg::<N>(accel_deg_s2)?.ok_or_else(|| {
         CliError::input(format!(
             "{}: no acceleration limits: give --accel-deg-s2 or set [limits] qdd_max_deg_s2",

@@ -346,9 +346,18 @@ pub struct MotionSection {
     /// the amplitude, for targets near a fixed start's reach; see `reactionless::Family`).
     #[serde(default)]
     pub family: Family,
+    /// Equal rest-to-rest segments of the motion, each with its own η (`1..=4`, default 1;
+    /// more than one needs `family = "free_amplitude"` and the multistart, and must divide
+    /// `tf_s / dt_s`; see `reactionless::Motion::with_segments`).
+    #[serde(default = "default_segments")]
+    pub segments: u32,
 }
 
 fn default_n() -> u32 {
+    1
+}
+
+fn default_segments() -> u32 {
     1
 }
 
@@ -687,7 +696,10 @@ impl LoadedTask {
             };
             self.err(what)
         })?;
-        Ok(motion.with_family(m.family))
+        motion
+            .with_family(m.family)
+            .with_segments(m.segments)
+            .map_err(|e| self.err(format!("[motion] segments = {}: {e}", m.segments)))
     }
 
     /// Start configuration (rad), checked for length and finiteness.

@@ -269,6 +269,31 @@ fn bad_task_files_are_named_and_write_nothing() {
         &["tf_s = NaN"],
     );
     rejects(
+        |s| s.replace("dt_s = 0.01", "dt_s = 0.01\nsegments = 2"),
+        ETA_HAT,
+        &["[motion] segments = 2", "free_amplitude"],
+    );
+    rejects(
+        |s| {
+            s.replace(
+                "dt_s = 0.01",
+                "dt_s = 0.01\nfamily = \"free_amplitude\"\nsegments = 7",
+            )
+        },
+        ETA_HAT,
+        &["[motion] segments = 7", "capacity of 4"],
+    );
+    rejects(
+        |s| {
+            s.replace(
+                "dt_s = 0.01",
+                "dt_s = 0.01\nfamily = \"free_amplitude\"\nsegments = 4",
+            )
+        },
+        ETA_HAT,
+        &["--eta has 8 values", "32 for its 4 segments"],
+    );
+    rejects(
         |s| s.replace("-90.0, 45.0, 0.0, 80.0", "-90.0, 45.0, 80.0"),
         ETA_HAT,
         &["[start] q_deg has 6 values, expected 7"],
@@ -1282,4 +1307,30 @@ fn block_writes_the_bytes_target_gives_qemu() {
         .assert()
         .code(2);
     assert!(!bad.exists());
+}
+
+/// A task of four segments (`[motion] segments = 4`) plans from the fixed start to its
+/// pose goal, writes the segments' 32 η values, and `check` passes it: the written samples
+/// are a fresh rollout of that η bit for bit, within the limits, at rest at both ends.
+/// Verifies RL-PLAN-015.
+#[test]
+fn a_task_of_four_segments_plans_and_checks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let r = host_sim()
+        .arg("plan")
+        .arg(root().join("tests/tasks/fixed/segments/ref/1cm/ref-0.toml"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["status"], "converged");
+    assert_eq!(plan["eta"].as_array().unwrap().len(), 32);
+    let c = host_sim().arg("check").arg(&out).output().unwrap();
+    let text = String::from_utf8_lossy(&c.stdout);
+    assert!(c.status.success(), "{text}");
+    assert!(text.contains("matches a fresh rollout of eta"), "{text}");
 }

@@ -35,7 +35,7 @@ fn task_and_etas<const N: usize, const K: usize>(path: &str) -> (Task<N, K>, Vec
             let mut p: Planner<N, K, 64> = Planner::new(task.clone(), config).unwrap();
             loop {
                 if let Status::Finished(plan) = p.step(u32::MAX, &mut ()).unwrap() {
-                    break plan.eta;
+                    break plan.eta[0];
                 }
             }
         })

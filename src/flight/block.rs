@@ -21,7 +21,7 @@
 //! | 6·8 | end effector: xyz, rpy |
 //! | N·8 | start q₀ (rad) |
 //! | 7·8 | target: position (m), quaternion `[w, x, y, z]` |
-//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–15 the degree, bits 16–23 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 24–31 zero) |
+//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–15 the degree, bits 16–23 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 24–31 the segment count less one, [`Motion::with_segments`]) |
 //! | 4 + 4 | particles, max_iterations (u32) |
 //! | 6·8 | c1, c2, w_max, w_min, tolerance, eta_bound |
 //! | 8 | seed (u64) |
@@ -37,7 +37,7 @@
 //! two-phase, `RLTASK05` both. A block without them is written with magic `RLTASK02` and is
 //! byte for byte what earlier versions wrote; [`decode`] reads all four. A block of the
 //! paper's family has family bits 0, so blocks written before the family existed read as
-//! the paper's.
+//! the paper's; likewise one segment has segment bits 0.
 
 use crate::config::{PlannerConfig, RefineAgainst, StagnationConfig, Strategy};
 use crate::error::{BlockFault, Error};
@@ -158,6 +158,8 @@ pub struct TaskBlock<const N: usize> {
     pub n: u32,
     /// The motion family ([`Motion::with_family`]).
     pub family: Family,
+    /// Segments of the motion ([`Motion::with_segments`], `1..=`[`crate::MAX_SEGMENTS`]).
+    pub segments: u32,
     /// Planner settings (with the frame budget: integration steps the flight software
     /// gives the planner per frame).
     pub planner: PlannerConfig,
@@ -182,7 +184,9 @@ impl<const N: usize> TaskBlock<N> {
         planner: &mut Planner<N, K, P>,
     ) -> Result<(), Error> {
         let loaded = Motion::new(self.tf_s, self.dt_s, self.n).and_then(|motion| {
-            let motion = motion.with_family(self.family);
+            let motion = motion
+                .with_family(self.family)
+                .with_segments(self.segments)?;
             planner
                 .task_mut()
                 .init(&self.robot, self.q0, self.target, motion)
@@ -214,7 +218,9 @@ impl<const N: usize> TaskBlock<N> {
             None => Err(Error::NotTwoPhase),
             Some(config) => Motion::new(self.tf_s, self.dt_s, self.n)
                 .and_then(|motion| {
-                    let motion = motion.with_family(self.family);
+                    let motion = motion
+                        .with_family(self.family)
+                        .with_segments(self.segments)?;
                     search
                         .task_mut()
                         .init(&self.robot, self.q0, self.target, motion)
@@ -370,7 +376,11 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     if block.n > u32::from(u16::MAX) {
         return Err(Error::Block(BlockFault::Field));
     }
-    w.u32(block.n | (u32::from(block.family.code()) << 16));
+    w.u32(
+        block.n
+            | (u32::from(block.family.code()) << 16)
+            | (block.segments.saturating_sub(1).min(0xFF) << 24),
+    );
     let p = &block.planner;
     w.u32(p.particles);
     w.u32(p.max_iterations);
@@ -489,10 +499,11 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let dt_s = r.f64()?;
     let degree_family = r.u32()?;
     let n = degree_family & 0xFFFF;
-    let family = u8::try_from(degree_family >> 16)
+    let family = u8::try_from((degree_family >> 16) & 0xFF)
         .ok()
         .and_then(Family::from_code)
         .ok_or(Error::Block(BlockFault::Field))?;
+    let segments = (degree_family >> 24) + 1;
     let particles = r.u32()?;
     let max_iterations = r.u32()?;
     let [c1, c2, w_max, w_min, tolerance, eta_bound] = r.f64s::<6>()?;
@@ -567,6 +578,7 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         dt_s,
         n,
         family,
+        segments,
         planner: PlannerConfig {
             strategy,
             max_rollouts,
@@ -614,6 +626,7 @@ mod tests {
             dt_s: 0.01,
             n: 1,
             family: Family::Paper,
+            segments: 1,
             planner,
             retime: None,
             two_phase: None,

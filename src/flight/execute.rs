@@ -8,6 +8,7 @@
 use crate::error::Error;
 use crate::rollout::{Outcome, Progress, Rollout, Sample};
 use crate::task::Task;
+use crate::trajectory::Eta;
 
 /// A stream of setpoints for one η.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,6 +26,19 @@ impl<const N: usize, const K: usize> Setpoints<N, K> {
     pub fn new(task: &Task<N, K>, eta: &[[f64; 2]; K]) -> Result<Self, Error> {
         Ok(Self {
             rollout: Rollout::new(task, eta)?,
+            pending: None,
+            outcome: None,
+        })
+    }
+
+    /// The setpoints of `eta` (one set of pairs per segment of the task's motion,
+    /// [`Rollout::of`]) for `task`, before the first one.
+    ///
+    /// # Errors
+    /// An invalid η (see [`Rollout::of`]).
+    pub fn of(task: &Task<N, K>, eta: &Eta<K>) -> Result<Self, Error> {
+        Ok(Self {
+            rollout: Rollout::of(task, eta)?,
             pending: None,
             outcome: None,
         })

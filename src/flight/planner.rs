@@ -20,8 +20,8 @@
 //!   updates with `4K` draws per particle, and, after a stagnation alarm, a permutation of
 //!   T);
 //! - per refinement step: a 6×6 Cholesky and O(K) vector work;
-//! - per multistart rollout: at most an 18×18 Cholesky and O(18²) products (`2K ≤ 18`
-//!   unknowns, `6 + N ≤ 18` residual rows).
+//! - per multistart rollout: at most a 32×32 Cholesky and O(32²) products (`2K·segments ≤
+//!   32` unknowns, `6 + N ≤ 18` residual rows).
 //!
 //! **One total budget**: [`PlannerConfig::max_rollouts`] rollouts, search and refinement
 //! together (default 8,040). When it is spent the plan ends exhausted (or, during
@@ -45,7 +45,7 @@
 
 use crate::batch::{Batch, Ended, Engine, Portable};
 use crate::config::{PlannerConfig, RefineAgainst, Strategy};
-use crate::error::Error;
+use crate::error::{Error, NeedsOneSegment};
 use crate::optimizer::Method;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
@@ -54,6 +54,7 @@ use crate::rollout::{Outcome, Progress, Rollout, Sample};
 use crate::strategy::Search;
 use crate::swarm::{Cost, Swarm};
 use crate::task::Task;
+use crate::trajectory::{Eta, one_segment};
 use crate::truth::{TRUTH_SUBSTEPS, TruthState};
 use core::marker::PhantomData;
 
@@ -98,8 +99,9 @@ pub struct Plan<const N: usize, const K: usize> {
     pub stop: Stop,
     /// The strategy that searched.
     pub strategy: Strategy,
-    /// η as pairs `(a_i, b_i)`.
-    pub eta: [[f64; 2]; K],
+    /// η as pairs `(a_i, b_i)`, one set per segment of the task's motion (segments past
+    /// [`crate::Motion::segments`] are zero).
+    pub eta: Eta<K>,
     /// The rollout of `eta`: final configuration, extrema, Φ, end pose, error, f.
     pub outcome: Outcome<N>,
     /// C-PSO: generations after the initial one; multistart: accepted LM steps.
@@ -156,12 +158,12 @@ enum Record<const N: usize, const K: usize> {
     /// first evaluation).
     Failed(Error),
     /// The best finished rollout.
-    Found([[f64; 2]; K], Outcome<N>),
+    Found(Eta<K>, Outcome<N>),
 }
 
 impl<const N: usize, const K: usize> Record<N, K> {
     /// Folds in the evaluation of `eta`.
-    fn fold(self, eta: &[[f64; 2]; K], evaluation: &Evaluation<N>) -> Self {
+    fn fold(self, eta: &Eta<K>, evaluation: &Evaluation<N>) -> Self {
         match (self, evaluation.outcome(), evaluation) {
             (Record::Found(_, best), Some(_), _)
                 if !evaluation.cost().dominates(&cost_of(&best)) =>
@@ -234,7 +236,8 @@ fn same<const K: usize>(a: &Candidate<K>, b: &Candidate<K>) -> bool {
         && a.eta
             .iter()
             .flatten()
-            .zip(b.eta.iter().flatten())
+            .flatten()
+            .zip(b.eta.iter().flatten().flatten())
             .all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
@@ -265,7 +268,7 @@ pub struct Planner<
     phase: Phase<N, K>,
     flight: Option<Flight<N, K>>,
     /// η of the rollout in flight (or last evaluated).
-    eta: [[f64; 2]; K],
+    eta: Eta<K>,
     record: Record<N, K>,
     rollouts: u32,
     search_rollouts: u32,
@@ -298,7 +301,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         search: Search::IDLE,
         phase: Phase::Failed(Error::NotInitialized),
         flight: None,
-        eta: [[0.0; 2]; K],
+        eta: one_segment([[0.0; 2]; K]),
         record: Record::Failed(Error::NotInitialized),
         rollouts: 0,
         search_rollouts: 0,
@@ -341,7 +344,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         self.flight = None;
         self.ahead.flush(&self.task);
         self.record = Record::Failed(Error::NotInitialized);
-        self.eta = [[0.0; 2]; K];
+        self.eta = one_segment([[0.0; 2]; K]);
         self.rollouts = 0;
         self.search_rollouts = 0;
         self.abandoned = 0;
@@ -349,7 +352,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         self.first_hit_f = f64::INFINITY;
         self.search_f = f64::INFINITY;
         self.spent = 0;
-        if let Err(e) = config.validate(P) {
+        if let Err(e) = config.validate(P).and(self.segments_fit(&config)) {
             self.phase = Phase::Failed(e);
             return Err(e);
         }
@@ -361,6 +364,21 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
             return Err(e);
         }
         self.phase = Phase::Search;
+        Ok(())
+    }
+
+    /// A motion of several segments is searched by the multistart alone, without the
+    /// refinement against the truth model (both step on one segment's η).
+    fn segments_fit(&self, config: &PlannerConfig) -> Result<(), Error> {
+        if self.task.motion().segments() <= 1 {
+            return Ok(());
+        }
+        if config.strategy != Strategy::Multistart {
+            return Err(Error::NeedsOneSegment(NeedsOneSegment::Cpso));
+        }
+        if config.refine_tolerance.is_some() && config.refine_against == RefineAgainst::Truth {
+            return Err(Error::NeedsOneSegment(NeedsOneSegment::TruthRefinement));
+        }
         Ok(())
     }
 
@@ -486,7 +504,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
                         continue;
                     }
                     self.eta = c.eta;
-                    match Rollout::new(&self.task, &c.eta) {
+                    match Rollout::of(&self.task, &c.eta) {
                         Ok(r) => Flight {
                             rollout: r.with_violation_cap(c.cap),
                             truth: c.truth.then(|| TruthFlight {
@@ -626,7 +644,8 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     /// Starts `c` (the current candidate) and the candidates the search knows after it in
     /// lanes, if it knows at least one (`false`: evaluate `c` alone).
     fn start_ahead(&mut self, c: &Candidate<K>) -> bool {
-        if c.truth || self.ahead_candidate(1).is_none() {
+        // Lanes roll out one segment: a motion of several goes one candidate at a time.
+        if c.truth || self.task.motion().segments() > 1 || self.ahead_candidate(1).is_none() {
             return false;
         }
         self.ahead.flush(&self.task);
@@ -646,7 +665,8 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     /// Loads `c` into lane `lane` as the next candidate of the window (`false`: η rejected).
     fn load_lane(&mut self, lane: usize, c: &Candidate<K>) -> bool {
         let a = &mut self.ahead;
-        if a.batch.load(lane, &self.task, &c.eta, c.cap).is_err() {
+        let [first, ..] = &c.eta;
+        if a.batch.load(lane, &self.task, first, c.cap).is_err() {
             return false;
         }
         if let Some(q) = a.queue.get_mut(lane) {
@@ -723,7 +743,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
         *left = left.saturating_sub(work.max(1));
     }
 
-    fn plan(&self, stop: Stop, eta: [[f64; 2]; K], outcome: Outcome<N>) -> Plan<N, K> {
+    fn plan(&self, stop: Stop, eta: Eta<K>, outcome: Outcome<N>) -> Plan<N, K> {
         let report = self.search.report();
         Plan {
             stop,
@@ -814,7 +834,7 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
             RefineStop::Stalled => Stop::Stalled,
         };
         let stop = self.verdict(self.meets(best, report.truth_f), ended);
-        let mut plan = self.plan(stop, *eta, *best);
+        let mut plan = self.plan(stop, one_segment(*eta), *best);
         plan.refine = Some(report);
         Phase::Done(plan)
     }

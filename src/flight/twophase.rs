@@ -52,7 +52,7 @@
 //! Loops are bounded by the rollout budget and constants; nothing allocates. Sizes:
 //! `TwoPhasePlan<7, 4>` and `TwoPhaseSearch<7, 4>`, see `tests/sizes.rs`.
 
-use crate::error::{Error, Param};
+use crate::error::{Error, NeedsOneSegment, Param};
 use crate::geometry::Pose;
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::model::Robot;
@@ -499,7 +499,8 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
     ///
     /// # Errors
     /// Bad settings ([`TwoPhaseConfig::validate`]), or a robot of more than
-    /// [`MAX_JOINTS`] joints ([`Error::CapacityExceeded`] naming [`Param::Joints`]); the
+    /// [`MAX_JOINTS`] joints ([`Error::CapacityExceeded`] naming [`Param::Joints`]), or a
+    /// motion of several segments ([`Error::NeedsOneSegment`]); the
     /// search is then idle.
     pub fn restart(&mut self, config: &TwoPhaseConfig, seed: u64) -> Result<(), Error> {
         self.at = At::Idle;
@@ -510,6 +511,9 @@ impl<const N: usize, const K: usize> TwoPhaseSearch<N, K> {
                 requested: N.min(u32::MAX as usize) as u32,
                 capacity: MAX_JOINTS as u32,
             });
+        }
+        if self.task.motion().segments() > 1 {
+            return Err(Error::NeedsOneSegment(NeedsOneSegment::TwoPhase));
         }
         self.config = *config;
         self.stream = Stream::new(seed);

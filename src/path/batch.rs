@@ -23,7 +23,7 @@
 //! what the planner charges to its budget; `hold` keeps chosen lanes where they are, so a
 //! budget smaller than the number of running lanes is honoured exactly.
 
-use crate::error::{Error, RankLoss};
+use crate::error::{Error, NeedsOneSegment, RankLoss};
 use crate::kinematics::Frames;
 use crate::lanes::{LaneMask, Lanes, Mask};
 use crate::rollout::{Outcome, Rollout, State, Stepped};
@@ -168,8 +168,14 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
         if !matches!(self.lanes.get(i), Some(Lane::Empty)) {
             return Err(Error::NotInitialized);
         }
-        let law = TimeLaw::new(eta, task.motion(), task.robot().qd_max())?;
-        let (ab, inv_g) = law.weights();
+        let law = TimeLaw::new(eta, task.motion(), task.robot().qd_max()).map_err(|e| {
+            if task.motion().segments() > 1 {
+                Error::NeedsOneSegment(NeedsOneSegment::Lanes)
+            } else {
+                e
+            }
+        })?;
+        let (ab, inv_g) = law.weights(0);
         for (to, from) in self.ab.iter_mut().zip(ab.iter()) {
             for (t, f) in to.iter_mut().zip(from.iter()) {
                 t.set(i, *f);

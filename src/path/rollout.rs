@@ -23,7 +23,7 @@ use crate::model::Robot;
 use crate::momentum::coupling;
 use crate::nullspace::{Basis, Conditioned};
 use crate::task::{Task, rank_error};
-use crate::trajectory::{Motion, TimeLaw, alpha};
+use crate::trajectory::{Eta, Motion, TimeLaw, alpha};
 use core::convert::Infallible;
 
 /// One point of the trajectory.
@@ -281,6 +281,16 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         Ok(Self::resume(law, 0, State::start(task)))
     }
 
+    /// A rollout of `eta` (one set of pairs per segment of the task's motion,
+    /// [`TimeLaw::of`]) for `task`, at `t = 0`.
+    ///
+    /// # Errors
+    /// As [`TimeLaw::of`].
+    pub fn of(task: &Task<N, K>, eta: &Eta<K>) -> Result<Self, Error> {
+        let law = TimeLaw::of(eta, task.motion(), task.robot().qd_max())?;
+        Ok(Self::resume(law, 0, State::start(task)))
+    }
+
     /// A rollout of `law` at step `step` with `state` (a lane of a batch, taken out).
     pub(crate) fn resume(law: TimeLaw<K>, step: u32, state: State<N, K, f64>) -> Self {
         Self {
@@ -422,27 +432,38 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         let motion = task.motion();
         let robot = task.robot();
         let dt = motion.dt();
-        let (ab, inv_g) = self.law.weights();
-        let ab = *ab;
+        // One segment's grid: the motion itself when it has one segment.
+        let grid = motion.segment();
+        let per = grid.steps().max(1);
         let mut frames = Frames::IDLE;
         while self.step < end {
-            let t = motion.time(self.step);
-            let qd = self.state.rates(&ab, inv_g, motion, t);
-            self.record(t, &qd, sink);
-            if let Err(stop) = cap.check(self.step, || {
-                robot.violation(&self.state.q_min, &self.state.q_max)
-            }) {
-                return Ok(Err(stop));
+            // The segment of this step: its weights, its first step and where it ends.
+            let k = (self.step / per).min(motion.segments().saturating_sub(1));
+            let first = k * per;
+            let seg_end = end.min(first.saturating_add(per)).max(self.step + 1);
+            let (ab, inv_g) = self.law.weights(k as usize);
+            let ab = *ab;
+            while self.step < seg_end {
+                let t = motion.time(self.step);
+                let qd = self
+                    .state
+                    .rates(&ab, inv_g, &grid, grid.time(self.step - first));
+                self.record(t, &qd, sink);
+                if let Err(stop) = cap.check(self.step, || {
+                    robot.violation(&self.state.q_min, &self.state.q_max)
+                }) {
+                    return Ok(Err(stop));
+                }
+                let stepped = self.state.step_one(robot, &qd, dt, &mut frames);
+                self.step += 1;
+                if !stepped.finite {
+                    return Err(Error::NonFiniteState { step: self.step });
+                }
+                stepped
+                    .conditioned
+                    .result()
+                    .map_err(rank_error(self.step))?;
             }
-            let stepped = self.state.step_one(robot, &qd, dt, &mut frames);
-            self.step += 1;
-            if !stepped.finite {
-                return Err(Error::NonFiniteState { step: self.step });
-            }
-            stepped
-                .conditioned
-                .result()
-                .map_err(rank_error(self.step))?;
         }
         Ok(Ok(()))
     }
@@ -535,6 +556,16 @@ impl<const N: usize, const K: usize> Task<N, K> {
         sink: &mut S,
     ) -> Result<Outcome<N>, Error> {
         let mut r = Rollout::new(self, eta)?;
+        let Ok(()) = r.integrate(self, self.motion().steps(), &NoCap, sink)?;
+        Ok(r.conclude(self, sink))
+    }
+    /// Runs a whole rollout of `eta` (one set of pairs per segment, [`Rollout::of`]) in one
+    /// call.
+    ///
+    /// # Errors
+    /// As [`Rollout::of`] and [`Rollout::advance`].
+    pub fn rollout_of<S: Sink<N>>(&self, eta: &Eta<K>, sink: &mut S) -> Result<Outcome<N>, Error> {
+        let mut r = Rollout::of(self, eta)?;
         let Ok(()) = r.integrate(self, self.motion().steps(), &NoCap, sink)?;
         Ok(r.conclude(self, sink))
     }

@@ -1,7 +1,7 @@
 //! The time law of eqs. 4–14 (spec §4) and the time grid of the rollout (spec §5).
 //!
-//! Owns [`Motion`] (duration `t_f`, step `dt`, degree `n`, step count `S = t_f/dt`) and
-//! [`TimeLaw`]: from `η = [a₁, b₁, …, a_K, b_K]` the polynomials
+//! Owns [`Motion`] (duration `t_f`, step `dt`, degree `n`, step count `S = t_f/dt`, family,
+//! segments), [`Eta`] and [`TimeLaw`]: from `η = [a₁, b₁, …, a_K, b_K]` the polynomials
 //!
 //! `β_i(t) = a_i t^{n+2} + b_i t^{n+1} + c_i t^n`, `c_i = −(a_i t_f² + b_i t_f)` (eq. 10),
 //!
@@ -21,19 +21,77 @@
 //! bound, and every longer η of that direction is the bound's motion. The search then has
 //! `2K` unknowns, not `2K − 1`.
 //!
+//! **Segments** ([`Motion::with_segments`], free-amplitude family): the motion is cut into
+//! up to [`MAX_SEGMENTS`] equal rest-to-rest segments, each the time law above on the local
+//! time of its segment with its own `(a_i, b_i)` ([`Eta`]: one set of pairs per segment;
+//! [`TimeLaw::of`]). The search then has `2K·segments` unknowns. One segment is the motion
+//! above, bit for bit.
+//!
 //! Only η's direction matters (paper family). η is first scaled by an exact power of two so that its
 //! largest component lies in `[1, 2)`: results are bit-identical to the unscaled η for any
 //! ordinary magnitude, and extreme magnitudes (1e±300, subnormals) work. The one limit is
 //! that `g`, reported for η as given, must be a finite `f64`: an η for which it overflows
 //! (`|η|·t_f^{n+2}/q̇_max ≳ 1e308`) is rejected with [`Error::EtaTooLarge`].
 
-use crate::error::{Error, Param};
+use crate::error::{Error, NeedsOneSegment, Param};
 use crate::lanes::Real;
 
 /// Largest accepted time-law degree `n`.
 pub const MAX_DEGREE: u32 = 8;
 /// Largest accepted step count `S = t_f/dt`.
 pub const MAX_STEPS: u32 = 1_000_000;
+/// Most segments of one motion ([`Motion::with_segments`]).
+pub const MAX_SEGMENTS: usize = 4;
+
+/// η of a whole motion: the pairs `(a_i, b_i)` of each segment, in time order. Segments past
+/// the motion's count ([`Motion::segments`]) are not read; by convention they are zero.
+pub type Eta<const K: usize> = [[[f64; 2]; K]; MAX_SEGMENTS];
+
+/// The η of a one-segment motion: `pairs`, then zero segments.
+#[must_use]
+pub const fn one_segment<const K: usize>(pairs: [[f64; 2]; K]) -> Eta<K> {
+    let zero = [[0.0; 2]; K];
+    [pairs, zero, zero, zero]
+}
+
+/// The first `segments` segments of `eta`, flat: `a₁, b₁, …, a_K, b_K` of segment 1, then
+/// segment 2's, … (`2K·segments` numbers).
+pub fn eta_flat<const K: usize>(eta: &Eta<K>, segments: u32) -> impl Iterator<Item = f64> + '_ {
+    eta.iter()
+        .take(segments as usize)
+        .flat_map(|s| s.iter().flat_map(|p| p.iter().copied()))
+}
+
+/// η of `segments` segments from its flat form ([`eta_flat`]).
+///
+/// # Errors
+/// [`Error::WrongLength`] unless `flat.len() == 2K·segments`;
+/// [`Error::CapacityExceeded`] for more than [`MAX_SEGMENTS`] segments.
+pub fn eta_from_flat<const K: usize>(flat: &[f64], segments: u32) -> Result<Eta<K>, Error> {
+    if segments as usize > MAX_SEGMENTS || segments == 0 {
+        return Err(Error::CapacityExceeded {
+            param: Param::Segments,
+            requested: segments,
+            capacity: MAX_SEGMENTS as u32,
+        });
+    }
+    let want = 2 * K * segments as usize;
+    if flat.len() != want {
+        return Err(Error::WrongLength {
+            expected: want.min(u16::MAX as usize) as u16,
+            got: flat.len().min(u16::MAX as usize) as u16,
+        });
+    }
+    let mut out = one_segment([[0.0; 2]; K]);
+    for (seg, chunk) in out.iter_mut().zip(flat.chunks_exact(2 * K)) {
+        for (pair, ab) in seg.iter_mut().zip(chunk.chunks_exact(2)) {
+            if let [a, b] = ab {
+                *pair = [*a, *b];
+            }
+        }
+    }
+    Ok(out)
+}
 
 /// Which velocity profiles one η names (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -99,9 +157,12 @@ pub struct Motion {
     tf: f64,
     dt: f64,
     steps: u32,
-    /// `n ≤ MAX_DEGREE`; 16 bits so that the family fits beside it (24 bytes in all).
+    /// `n ≤ MAX_DEGREE`; 16 bits so that the family and segment count fit beside it (24
+    /// bytes in all).
     n: u16,
     family: Family,
+    /// `1..=MAX_SEGMENTS`, dividing `steps`.
+    segments: u8,
 }
 
 impl Motion {
@@ -112,6 +173,7 @@ impl Motion {
         steps: 0,
         n: 1,
         family: Family::Paper,
+        segments: 1,
     };
 
     /// A motion of duration `tf_s` (s) integrated with step `dt_s` (s), time-law degree `n`.
@@ -154,6 +216,7 @@ impl Motion {
             steps: steps as u32,
             n: n as u16,
             family: Family::Paper,
+            segments: 1,
         })
     }
 
@@ -168,6 +231,68 @@ impl Motion {
     #[must_use]
     pub fn family(&self) -> Family {
         self.family
+    }
+
+    /// The same motion cut into `segments` equal segments, each a rest-to-rest motion of
+    /// its own η ([`TimeLaw::of`]; [`Motion::new`] gives one).
+    ///
+    /// # Errors
+    /// [`Error::NotPositive`] for 0 and [`Error::CapacityExceeded`] above [`MAX_SEGMENTS`]
+    /// (both naming [`Param::Segments`]); [`Error::SegmentsUneven`] unless the segment
+    /// count divides `t_f/dt`; [`Error::NeedsOneSegment`] for several segments of the
+    /// paper's family.
+    ///
+    /// ```
+    /// use reactionless::{Family, Motion};
+    /// let m = Motion::new(30.0, 0.01, 1).unwrap().with_family(Family::FreeAmplitude);
+    /// let four = m.with_segments(4).unwrap();
+    /// assert_eq!((four.segments(), four.segment().steps(), four.segment().tf()), (4, 750, 7.5));
+    /// assert!(m.with_segments(7).is_err()); // 3,000 steps do not split into 7 (and 7 > 4)
+    /// assert!(m.with_family(Family::Paper).with_segments(2).is_err());
+    /// ```
+    pub fn with_segments(self, segments: u32) -> Result<Self, Error> {
+        if segments == 0 {
+            return Err(Error::NotPositive(Param::Segments));
+        }
+        if segments as usize > MAX_SEGMENTS {
+            return Err(Error::CapacityExceeded {
+                param: Param::Segments,
+                requested: segments,
+                capacity: MAX_SEGMENTS as u32,
+            });
+        }
+        if self.steps % segments != 0 {
+            return Err(Error::SegmentsUneven { segments });
+        }
+        if segments > 1 && self.family == Family::Paper {
+            return Err(Error::NeedsOneSegment(NeedsOneSegment::PaperFamily));
+        }
+        Ok(Self {
+            segments: segments as u8,
+            ..self
+        })
+    }
+
+    /// Number of segments (1 unless [`Motion::with_segments`]).
+    #[must_use]
+    pub fn segments(&self) -> u32 {
+        u32::from(self.segments)
+    }
+
+    /// The grid of one segment: duration `t_f/segments`, `S/segments` steps of `dt`, one
+    /// segment (the motion itself when it has one).
+    #[must_use]
+    pub fn segment(&self) -> Motion {
+        if self.segments <= 1 {
+            return *self;
+        }
+        let count = u32::from(self.segments);
+        Motion {
+            tf: self.tf / f64::from(count),
+            steps: self.steps / count,
+            segments: 1,
+            ..*self
+        }
     }
 
     /// Duration `t_f` (s).
@@ -259,30 +384,46 @@ fn powi<T: Real>(t: T, n: u32) -> T {
     p
 }
 
-/// The velocity profile of one η: `β_i(t)`, `β_i,max` and `g` (eqs. 5–14).
+/// The velocity profile of one η: `β_i(t)`, `β_i,max` and `g` (eqs. 5–14), per segment
+/// when the motion has several ([`Motion::with_segments`]).
+///
+/// **Segments.** Segment `k` (0-based) covers the steps `k·m … (k+1)·m` (`m = S/segments`)
+/// with its own `(a_i, b_i)` and `g`, on the local time `τ = (s − k·m)·dt` of one segment
+/// ([`Motion::segment`]): its `β_i(τ)` vanishes at both ends, so the motion rests at every
+/// junction and `q̇` stays continuous. One segment is the time law above, bit for bit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TimeLaw<const K: usize> {
-    /// Normalised `(a_i, b_i)`.
-    ab: [[f64; 2]; K],
+    /// Normalised `(a_i, b_i)` of each segment.
+    ab: Eta<K>,
+    /// One segment's duration (s): `t_f` for one segment.
     tf: f64,
+    /// The whole motion's `t_f` (s).
+    total: f64,
     n: u32,
+    /// Segments (`1..=MAX_SEGMENTS`).
+    segments: u32,
+    /// `β_i,max` of the first segment, normalised.
     beta_max: [f64; K],
-    /// `1/g` for the normalised η (s·rad⁻¹ scale).
-    inv_g: f64,
-    /// `g` for the normalised η.
-    g: f64,
-    /// η was multiplied by `2^scale_exp`.
-    scale_exp: i32,
+    /// `1/g` for each segment's normalised η (s·rad⁻¹ scale).
+    inv_g: [f64; MAX_SEGMENTS],
+    /// `g` for each segment's normalised η.
+    g: [f64; MAX_SEGMENTS],
+    /// Each segment's η was multiplied by `2^scale_exp`.
+    scale_exp: [i32; MAX_SEGMENTS],
 }
 
+/// One segment of a [`TimeLaw`]: normalised pairs, `β_i,max`, `g`, scale exponent.
+type Segment<const K: usize> = ([[f64; 2]; K], [f64; K], f64, i32);
+
 impl<const K: usize> TimeLaw<K> {
-    /// The time law of `eta` (pairs `(a_i, b_i)`) for `motion`, with joint rate bound
-    /// `qd_max` (rad/s).
+    /// The time law of `eta` (pairs `(a_i, b_i)`) for a one-segment `motion`, with joint
+    /// rate bound `qd_max` (rad/s).
     ///
     /// # Errors
     /// [`Error::NotFinite`] for a non-finite component, [`Error::EtaZero`] if all are zero,
-    /// [`Error::NotPositive`] / [`Error::NotFinite`] for a bad `qd_max`.
+    /// [`Error::NotPositive`] / [`Error::NotFinite`] for a bad `qd_max`,
+    /// [`Error::WrongLength`] for a motion of several segments ([`TimeLaw::of`]).
     ///
     /// Verifies RL-LAW-004.
     ///
@@ -293,72 +434,86 @@ impl<const K: usize> TimeLaw<K> {
     /// assert!((law.g() - 16.0 / (3.0 * 3f64.sqrt())).abs() < 1e-14);
     /// ```
     pub fn new(eta: &[[f64; 2]; K], motion: &Motion, qd_max: f64) -> Result<Self, Error> {
+        if motion.segments() > 1 {
+            return Err(Error::WrongLength {
+                expected: (2 * K as u32 * motion.segments()).min(u32::from(u16::MAX)) as u16,
+                got: (2 * K).min(u16::MAX as usize) as u16,
+            });
+        }
+        Self::of(&one_segment(*eta), motion, qd_max)
+    }
+
+    /// The time law of `eta` (the first [`Motion::segments`] segments are read) for
+    /// `motion`, with joint rate bound `qd_max` (rad/s).
+    ///
+    /// # Errors
+    /// As [`TimeLaw::new`], per segment ([`Param::Eta`] counts the flat η of
+    /// [`eta_flat`]); [`Error::NeedsOneSegment`] for several segments of the paper's family.
+    pub fn of(eta: &Eta<K>, motion: &Motion, qd_max: f64) -> Result<Self, Error> {
         if !qd_max.is_finite() {
             return Err(Error::NotFinite(Param::VelocityLimit(0)));
         }
         if qd_max <= 0.0 {
             return Err(Error::NotPositive(Param::VelocityLimit(0)));
         }
-        let mut largest = 0.0f64;
-        for (i, v) in eta.iter().flatten().enumerate() {
-            if !v.is_finite() {
-                return Err(Error::NotFinite(Param::Eta((i + 1) as u8)));
-            }
-            largest = largest.max(libm::fabs(*v));
+        let segments = motion.segments().clamp(1, MAX_SEGMENTS as u32);
+        if segments > 1 && motion.family() == Family::Paper {
+            return Err(Error::NeedsOneSegment(NeedsOneSegment::PaperFamily));
         }
-        if largest == 0.0 {
-            return Err(Error::EtaZero);
-        }
-        // largest = m·2^e with m in [0.5, 1): scale by 2^(1−e) to bring it into [1, 2).
-        let (_, e) = libm::frexp(largest);
-        let scale_exp = 1 - e;
-        let ab = eta.map(|[a, b]| [libm::scalbn(a, scale_exp), libm::scalbn(b, scale_exp)]);
-        let tf = motion.tf();
-        let n = motion.degree();
-        let mut beta_max = [0.0; K];
-        let mut sum = 0.0;
-        for (bm, &[a, b]) in beta_max.iter_mut().zip(ab.iter()) {
-            *bm = peak(a, b, tf, n);
-            sum += *bm;
-        }
-        let g = match motion.family() {
-            Family::Paper => sum / qd_max,
-            Family::FreeAmplitude => {
-                // `max(G₀, max_s ‖β(t_s)‖₂ / q̇_max)` in the scaled frame (β is linear in η,
-                // so only G₀ needs the frame's factor); [`TimeLaw::g`] scales it back.
-                let g0 = libm::scalbn(free_scale(tf, n, qd_max), scale_exp);
-                g0.max(grid_peak_norm(&ab, motion) / qd_max * (1.0 + RATE_MARGIN))
-            }
+        let grid = motion.segment();
+        let mut law = Self {
+            ab: one_segment([[0.0; 2]; K]),
+            tf: grid.tf(),
+            total: motion.tf(),
+            n: motion.degree(),
+            segments,
+            beta_max: [0.0; K],
+            inv_g: [0.0; MAX_SEGMENTS],
+            g: [0.0; MAX_SEGMENTS],
+            scale_exp: [0; MAX_SEGMENTS],
         };
-        if !(g > 0.0 && g.is_finite()) {
-            // Every β_i ≡ 0 up to rounding (cannot happen for a non-zero η; kept as a guard),
-            // or a free-amplitude η so short (≲ 1e-300) that its g overflows: no motion.
-            return Err(Error::EtaZero);
+        for (k, pairs) in eta.iter().enumerate().take(segments as usize) {
+            let (ab, beta_max, g, scale_exp) = segment(pairs, &grid, qd_max, 2 * K * k)?;
+            if k == 0 {
+                law.beta_max = beta_max;
+            }
+            if let (Some(a), Some(i), Some(gg), Some(e)) = (
+                law.ab.get_mut(k),
+                law.inv_g.get_mut(k),
+                law.g.get_mut(k),
+                law.scale_exp.get_mut(k),
+            ) {
+                *a = ab;
+                *i = 1.0 / g;
+                *gg = g;
+                *e = scale_exp;
+            }
         }
-        if !libm::scalbn(g, -scale_exp).is_finite() {
-            return Err(Error::EtaTooLarge);
+        Ok(law)
+    }
+
+    /// The segment of time `t` (s) and the local time in it.
+    fn locate(&self, t: f64) -> (usize, f64) {
+        if self.segments <= 1 {
+            return (0, t);
         }
-        Ok(Self {
-            ab,
-            tf,
-            n,
-            beta_max,
-            inv_g: 1.0 / g,
-            g,
-            scale_exp,
-        })
+        let last = self.segments as usize - 1;
+        if t >= self.total {
+            return (last, self.tf);
+        }
+        let k = (libm::floor(t / self.tf).max(0.0) as usize).min(last);
+        (k, t - k as f64 * self.tf)
     }
 
     /// `β_i(t)` for the η as given (not normalised).
     #[must_use]
     pub fn beta(&self, t: f64) -> [f64; K] {
+        let (k, t) = self.locate(t);
+        let (Some(ab), Some(&e)) = (self.ab.get(k), self.scale_exp.get(k)) else {
+            return [0.0; K];
+        };
         let tn = powi(t, self.n);
-        self.ab.map(|[a, b]| {
-            libm::scalbn(
-                tn * (t - self.tf) * (a * (t + self.tf) + b),
-                -self.scale_exp,
-            )
-        })
+        ab.map(|[a, b]| libm::scalbn(tn * (t - self.tf) * (a * (t + self.tf) + b), -e))
     }
 
     /// `α_i(t) = β_i(t)/g` (rad/s): the weights of the basis vectors in `q̇` (eq. 4 with unit
@@ -367,26 +522,101 @@ impl<const K: usize> TimeLaw<K> {
     #[inline]
     #[must_use]
     pub fn alpha(&self, t: f64) -> [f64; K] {
-        alpha(&self.ab, self.inv_g, self.tf, self.n, t)
+        let (k, t) = self.locate(t);
+        let (ab, inv_g) = self.weights(k);
+        alpha(ab, inv_g, self.tf, self.n, t)
     }
 
-    /// The normalised `(a_i, b_i)` and `1/g` that [`TimeLaw::alpha`] evaluates.
-    pub(crate) fn weights(&self) -> (&[[f64; 2]; K], f64) {
-        (&self.ab, self.inv_g)
+    /// The normalised `(a_i, b_i)` and `1/g` of segment `k` that [`TimeLaw::alpha`]
+    /// evaluates (zero past the last segment).
+    pub(crate) fn weights(&self, k: usize) -> (&[[f64; 2]; K], f64) {
+        let [first, ..] = &self.ab;
+        match (self.ab.get(k), self.inv_g.get(k)) {
+            (Some(ab), Some(&inv_g)) => (ab, inv_g),
+            _ => (first, 0.0),
+        }
     }
 
-    /// `β_i,max` for the η as given.
+    /// Number of segments.
+    #[must_use]
+    pub fn segments(&self) -> u32 {
+        self.segments
+    }
+
+    /// `β_i,max` for the η as given (the first segment's).
     #[must_use]
     pub fn beta_max(&self) -> [f64; K] {
-        self.beta_max.map(|b| libm::scalbn(b, -self.scale_exp))
+        let e = self.scale_exp.first().copied().unwrap_or(0);
+        self.beta_max.map(|b| libm::scalbn(b, -e))
     }
 
-    /// `g` for the η as given: eq. 14's, or the free-amplitude family's (module docs);
-    /// finite (see [`Error::EtaTooLarge`]).
+    /// `g` for the η as given: eq. 14's, or the free-amplitude family's (module docs); the
+    /// largest segment's; finite (see [`Error::EtaTooLarge`]).
     #[must_use]
     pub fn g(&self) -> f64 {
-        libm::scalbn(self.g, -self.scale_exp)
+        let mut best = 0.0f64;
+        for (g, e) in self
+            .g
+            .iter()
+            .zip(self.scale_exp.iter())
+            .take(self.segments as usize)
+        {
+            best = best.max(libm::scalbn(*g, -*e));
+        }
+        best
     }
+}
+
+/// One segment's normalised pairs, `β_i,max`, `g` and scale exponent, on the grid of one
+/// segment; `offset` numbers its components in the flat η (for errors).
+fn segment<const K: usize>(
+    eta: &[[f64; 2]; K],
+    motion: &Motion,
+    qd_max: f64,
+    offset: usize,
+) -> Result<Segment<K>, Error> {
+    let mut largest = 0.0f64;
+    for (i, v) in eta.iter().flatten().enumerate() {
+        if !v.is_finite() {
+            return Err(Error::NotFinite(
+                Param::Eta((offset + i + 1).min(255) as u8),
+            ));
+        }
+        largest = largest.max(libm::fabs(*v));
+    }
+    if largest == 0.0 {
+        return Err(Error::EtaZero);
+    }
+    // largest = m·2^e with m in [0.5, 1): scale by 2^(1−e) to bring it into [1, 2).
+    let (_, e) = libm::frexp(largest);
+    let scale_exp = 1 - e;
+    let ab = eta.map(|[a, b]| [libm::scalbn(a, scale_exp), libm::scalbn(b, scale_exp)]);
+    let tf = motion.tf();
+    let n = motion.degree();
+    let mut beta_max = [0.0; K];
+    let mut sum = 0.0;
+    for (bm, &[a, b]) in beta_max.iter_mut().zip(ab.iter()) {
+        *bm = peak(a, b, tf, n);
+        sum += *bm;
+    }
+    let g = match motion.family() {
+        Family::Paper => sum / qd_max,
+        Family::FreeAmplitude => {
+            // `max(G₀, max_s ‖β(t_s)‖₂ / q̇_max)` in the scaled frame (β is linear in η,
+            // so only G₀ needs the frame's factor); [`TimeLaw::g`] scales it back.
+            let g0 = libm::scalbn(free_scale(tf, n, qd_max), scale_exp);
+            g0.max(grid_peak_norm(&ab, motion) / qd_max * (1.0 + RATE_MARGIN))
+        }
+    };
+    if !(g > 0.0 && g.is_finite()) {
+        // Every β_i ≡ 0 up to rounding (cannot happen for a non-zero η; kept as a guard),
+        // or a free-amplitude η so short (≲ 1e-300) that its g overflows: no motion.
+        return Err(Error::EtaZero);
+    }
+    if !libm::scalbn(g, -scale_exp).is_finite() {
+        return Err(Error::EtaTooLarge);
+    }
+    Ok((ab, beta_max, g, scale_exp))
 }
 
 /// `α_i(t) = tⁿ (t − t_f)(a_i (t + t_f) + b_i)/g` for normalised `(a_i, b_i)` and `1/g`:

@@ -10,10 +10,16 @@
 //! `p = argmax |x_i|`, column `p` left out). A tangent step `δ` becomes the ambient step
 //! `s = Σ δ_c u_c` and the new iterate `(x + s)/‖x + s‖`.
 //!
-//! **Free amplitude** ([`LmConfig::free_amplitude`], for [`Family::FreeAmplitude`]): η's
+//! **Free amplitude** ([`LmConfig::free_amplitude`], for [`Family::FreeAmplitude`](crate::Family::FreeAmplitude)): η's
 //! magnitude is the motion's amplitude (linear in η below the rate bound), so the iterate
 //! is any point of `ℝ^{2K}`, the search runs along the `2K` axes `u_c = e_c`, and a trial is
 //! `x + s` as it is. Screening draws the same points of the unit sphere.
+//!
+//! **Segments** ([`LmConfig::segments`], a free-amplitude motion of several segments,
+//! [`crate::Motion::with_segments`]): the iterate is the segments' η side by side
+//! (`2K·segments ≤` [`MAX_DIM`] ambient unknowns, searched as the free amplitude's), and a
+//! screening point puts each segment's `2K` components on its own unit sphere. One segment
+//! is the search above, bit for bit.
 //!
 //! **Residual.** `r = [e; w·p]` (`6 + N` rows): the pose error `e` of spec §6 and, per joint
 //! `j`, `p_j = max(0, q_max,j − (hi_j − m)) + max(0, (lo_j + m) − q_min,j)`, the joint-limit
@@ -46,8 +52,9 @@
 //! [`LmConfig::starts_per_screen`] of them (smallest `‖r‖`, in order) are started one after
 //! the other; then a new batch is drawn.
 //!
-//! **Randomness.** Only the screening batches draw: `2K` uniforms per candidate
-//! (`2u − 1`, components in the order a₁, b₁, …, a_K, b_K), candidates in order, a batch
+//! **Randomness.** Only the screening batches draw: `2K·segments` uniforms per candidate
+//! (`2u − 1`, components in the order a₁, b₁, …, a_K, b_K of each segment in turn),
+//! candidates in order, a batch
 //! when it starts (the first one in [`Multistart::new`]). Nothing else is random, so the
 //! same seed and the same outcomes give the same bits.
 //!
@@ -60,6 +67,7 @@
 //! so one run can be measured against both σ_e and a refinement tolerance.
 
 use crate::config::{PlannerConfig, RefineAgainst};
+use crate::error::NeedsOneSegment;
 use crate::error::{Error, Param};
 use crate::model::Robot;
 use crate::optimizer::{Candidate, Evaluation, Next, Observer, Optimizer, Stop};
@@ -68,7 +76,7 @@ use crate::random::Stream;
 use crate::refine::solve_spd_in_place;
 use crate::rollout::Outcome;
 use crate::task::Task;
-use crate::trajectory::Family;
+use crate::trajectory::{Eta, Motion, one_segment};
 
 /// Below this `f` (m and rad, as σ_e) a start that stalls is handed to the refinement
 /// against the truth model instead of being restarted, when the planner refines against
@@ -82,8 +90,9 @@ pub const TRUTH_HANDOVER_FLOOR: f64 = 1e-3;
 /// ([`LmConfig::floor_starts`]).
 pub const FLOOR_STARTS: u32 = 3;
 
-/// Largest `2K` (K ≤ 9 for N ≤ 12).
-pub const MAX_DIM: usize = 18;
+/// Largest number of unknowns `2K·segments`: `2K ≤ 18` (K ≤ 9 for N ≤ 12), and four
+/// segments of a 7-joint arm (K = 4).
+pub const MAX_DIM: usize = 32;
 /// Largest residual length `6 + N`.
 pub const MAX_ROWS: usize = 18;
 /// Largest screening batch.
@@ -130,6 +139,10 @@ pub struct LmConfig {
     /// Search η's magnitude too ([`crate::Family::FreeAmplitude`]): `2K` ambient unknowns
     /// instead of `2K − 1` on the sphere (module docs).
     pub free_amplitude: bool,
+    /// Segments of the motion ([`crate::Motion::with_segments`], with the free amplitude):
+    /// the iterate holds each segment's `2K` components in turn, `2K·segments ≤`
+    /// [`MAX_DIM`] unknowns.
+    pub segments: u32,
     /// Forward-difference step on the unit sphere.
     pub fd_step: f64,
     /// Stop (instead of restarting) when a start that has reached `‖r‖ ≤ σ_e` runs out of
@@ -171,6 +184,7 @@ impl LmConfig {
             floor: 0.0,
             floor_starts: 0,
             free_amplitude: false,
+            segments: 1,
         }
     }
 
@@ -189,6 +203,12 @@ impl LmConfig {
         let non_negative = [self.penalty_weight, self.margin];
         if non_negative.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
             return Err(Error::NotPositive(Param::RefineTolerance));
+        }
+        if self.segments == 0 {
+            return Err(Error::NotPositive(Param::Segments));
+        }
+        if self.segments > 1 && !self.free_amplitude {
+            return Err(Error::NeedsOneSegment(NeedsOneSegment::PaperFamily));
         }
         if self.screen == 0
             || self.screen as usize > MAX_SCREEN
@@ -293,7 +313,7 @@ pub struct Multistart<const N: usize, const K: usize> {
     report: MultistartReport,
     /// A start is running (its end is counted in [`MultistartReport::floored`]).
     live: bool,
-    best_eta: [[f64; 2]; K],
+    best_eta: Eta<K>,
     best: Option<Outcome<N>>,
     /// Scratch of each step's solve (not state: rebuilt every time): `J_t = J U`.
     jt: [Col; MAX_ROWS],
@@ -302,7 +322,6 @@ pub struct Multistart<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Multistart<N, K> {
-    const D: usize = 2 * K;
     const FITS: () = assert!(2 * K <= MAX_DIM && 6 + N <= MAX_ROWS && K >= 1);
 
     /// No search (a placeholder, `const`, for statically allocated planners).
@@ -335,7 +354,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         ref_rollout: 0,
         report: MultistartReport::NONE,
         live: false,
-        best_eta: [[0.0; 2]; K],
+        best_eta: one_segment([[0.0; 2]; K]),
         best: None,
         jt: [[0.0; MAX_DIM]; MAX_ROWS],
         a: [[0.0; MAX_DIM]; MAX_DIM],
@@ -375,7 +394,15 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         if !(tolerance.is_finite() && tolerance > 0.0) {
             return Err(Error::NotPositive(Param::Tolerance));
         }
-        let tangent = Self::unknowns(config.free_amplitude) as u32;
+        let ambient = 2 * K * config.segments as usize;
+        if ambient > MAX_DIM {
+            return Err(Error::CapacityExceeded {
+                param: Param::Segments,
+                requested: config.segments,
+                capacity: (MAX_DIM / (2 * K)) as u32,
+            });
+        }
+        let tangent = Self::unknowns(config.free_amplitude, config.segments) as u32;
         self.patience = if config.patience == 0 {
             2 * tangent + 8
         } else {
@@ -417,7 +444,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         self.ref_rollout = 0;
         self.report = MultistartReport::NONE;
         self.live = false;
-        self.best_eta = [[0.0; 2]; K];
+        self.best_eta = one_segment([[0.0; 2]; K]);
         self.best = None;
         self.draw_batch(stream);
         Ok(())
@@ -426,7 +453,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     /// The next η to evaluate and its violation cap (`∞`: evaluate to the end). Once
     /// finished it returns the best η.
     #[must_use]
-    fn ask(&self) -> ([[f64; 2]; K], f64) {
+    fn ask(&self) -> (Eta<K>, f64) {
         let cap = f64::INFINITY;
         match self.phase {
             Phase::Screen(i) => (to_eta(self.pool.get(i).unwrap_or(&self.x)), cap),
@@ -515,7 +542,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
 
     /// The best rollout so far (feasible with the smallest f, else the least violating).
     #[must_use]
-    pub fn best(&self) -> Option<(&[[f64; 2]; K], &Outcome<N>)> {
+    pub fn best(&self) -> Option<(&Eta<K>, &Outcome<N>)> {
         self.best.as_ref().map(|o| (&self.best_eta, o))
     }
 
@@ -532,7 +559,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     }
 
     /// Best-so-far bookkeeping, σ_e first hit and convergence for one evaluated rollout.
-    fn observe(&mut self, eta: &[[f64; 2]; K], o: &Outcome<N>) {
+    fn observe(&mut self, eta: &Eta<K>, o: &Outcome<N>) {
         let feasible = o.phi == 0.0;
         if feasible && o.f <= self.config.sigma_e && self.report.first_hit.is_none() {
             self.report.first_hit = Some(self.report.rollouts);
@@ -574,7 +601,8 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
 
     /// The draws of one screening batch (normalised directions); phase → `Screen(0)`.
     fn draw_batch(&mut self, stream: &mut Stream) {
-        let d = Self::D;
+        let d = 2 * K;
+        let segments = self.config.segments as usize;
         for (p, used) in self
             .pool
             .iter_mut()
@@ -582,10 +610,13 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             .take(self.config.screen as usize)
         {
             *p = [0.0; MAX_DIM];
-            for v in p.iter_mut().take(d) {
+            for v in p.iter_mut().take(d * segments) {
                 *v = 2.0 * stream.uniform() - 1.0;
             }
-            normalise(p);
+            // Each segment's components on its unit sphere (one segment: the whole point).
+            for block in p.chunks_exact_mut(d).take(segments) {
+                normalise(block);
+            }
             *used = false;
         }
         self.pool_merit = [f64::INFINITY; MAX_SCREEN];
@@ -655,13 +686,13 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     }
 
     /// Search directions: `2K − 1` on the sphere, `2K` with a free amplitude.
-    const fn unknowns(free_amplitude: bool) -> usize {
-        Self::D - if free_amplitude { 0 } else { 1 }
+    const fn unknowns(free_amplitude: bool, segments: u32) -> usize {
+        2 * K * segments as usize - if free_amplitude { 0 } else { 1 }
     }
 
     /// [`Self::unknowns`] of this search.
     fn dims(&self) -> usize {
-        Self::unknowns(self.config.free_amplitude)
+        Self::unknowns(self.config.free_amplitude, self.config.segments)
     }
 
     /// The point that differences direction `c`: `x + h·u_c`.
@@ -677,7 +708,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     /// Tangent direction `c` (`0..2K−1`) at `x`: column `c'` of the Householder matrix, `c'`
     /// skipping the pivot.
     fn tangent(&self, c: usize) -> Col {
-        let d = Self::D;
+        let d = 2 * K;
         if self.config.free_amplitude {
             let mut e = [0.0; MAX_DIM];
             if let Some(v) = e.get_mut(c) {
@@ -781,7 +812,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             if !self.config.broyden {
                 self.phase = Phase::Column(0);
             } else if self.config.refresh {
-                let c = self.cursor % self.dims();
+                let c = self.cursor % self.dims().max(1);
                 self.cursor = self.cursor.wrapping_add(1);
                 self.phase = Phase::Refresh(c);
             } else {
@@ -833,7 +864,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         }
         let m = self.dims();
         // J_t = J U (rows × m), tangent directions as columns; kept in the struct (like A
-        // below) so that the 18×18 scratch matrices live in static memory, not the stack.
+        // below) so that the 32×32 scratch matrices live in static memory, not the stack.
         for row in &mut self.jt {
             *row = [0.0; MAX_DIM];
         }
@@ -921,11 +952,12 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     /// The multistart's settings for the planner's `config`: [`LmConfig::reference`] with
     /// the total budget, σ_e, and the truth hand-over floor when refining against the
     /// truth model, and η's magnitude searched too for `family`
-    /// [`Family::FreeAmplitude`]; and the f it searches to: the refinement tolerance when
+    /// [`Family::FreeAmplitude`](crate::Family::FreeAmplitude); and the f it searches to: the refinement tolerance when
     /// there is one (it refines as it searches; against the truth it stops at its
     /// planner-model floor and the truth refinement takes over), else σ_e.
     #[must_use]
-    pub fn settings(config: &PlannerConfig, family: Family) -> (LmConfig, f64) {
+    pub fn settings(config: &PlannerConfig, motion: &Motion) -> (LmConfig, f64) {
+        let (family, segments) = (motion.family(), motion.segments());
         let lm = LmConfig {
             max_rollouts: config.max_rollouts,
             sigma_e: config.tolerance,
@@ -936,13 +968,14 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             floor_starts: match (config.refine_tolerance, config.refine_against) {
                 // Fewer unknowns than the 6 pose equations.
                 (Some(_), RefineAgainst::Planner)
-                    if Self::unknowns(family.free_amplitude()) < 6 =>
+                    if Self::unknowns(family.free_amplitude(), segments) < 6 =>
                 {
                     FLOOR_STARTS
                 }
                 _ => 0,
             },
             free_amplitude: family.free_amplitude(),
+            segments,
             ..LmConfig::reference()
         };
         let tolerance = match config.refine_tolerance {
@@ -962,7 +995,7 @@ impl<const N: usize, const K: usize> Method<N, K> for Multistart<N, K> {
         task: &Task<N, K>,
         stream: &mut Stream,
     ) -> Result<(), Error> {
-        let (lm, tolerance) = Self::settings(config, task.motion().family());
+        let (lm, tolerance) = Self::settings(config, task.motion());
         self.reset(&lm, task.robot(), tolerance, stream)
     }
 
@@ -987,7 +1020,7 @@ impl<const N: usize, const K: usize> Method<N, K> for Multistart<N, K> {
 impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
     fn candidate(&self) -> Candidate<K> {
         let (eta, cap) = self.ask();
-        Candidate::plain(eta, cap)
+        Candidate::segmented(eta, cap)
     }
 
     /// A finished rollout is an outcome; an abandoned or failed one counts like a failed
@@ -1024,14 +1057,16 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
                 if i >= self.config.screen as usize {
                     return None;
                 }
-                self.pool.get(i).map(|p| Candidate::plain(to_eta(p), cap))
+                self.pool
+                    .get(i)
+                    .map(|p| Candidate::segmented(to_eta(p), cap))
             }
             Phase::Column(c) => {
                 let c = c.checked_add(j)?;
                 if c >= self.dims() {
                     return None;
                 }
-                Some(Candidate::plain(to_eta(&self.column_point(c)), cap))
+                Some(Candidate::segmented(to_eta(&self.column_point(c)), cap))
             }
             Phase::Refresh(_) | Phase::Trial | Phase::Done => None,
         }
@@ -1039,25 +1074,29 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Multistart<N, K> {
 }
 
 /// Scales to unit length (a zero vector becomes `e_0`).
-fn normalise(v: &mut Col) {
+fn normalise(v: &mut [f64]) {
     let n = libm::sqrt(v.iter().fold(0.0, |s, x| s + x * x));
     if n > 0.0 && n.is_finite() {
         for x in v.iter_mut() {
             *x /= n;
         }
     } else {
-        *v = [0.0; MAX_DIM];
+        v.fill(0.0);
         if let Some(x) = v.first_mut() {
             *x = 1.0;
         }
     }
 }
 
-fn to_eta<const K: usize>(v: &Col) -> [[f64; 2]; K] {
-    let mut eta = [[0.0; 2]; K];
-    for (pair, chunk) in eta.iter_mut().zip(v.chunks_exact(2)) {
-        if let [a, b] = chunk {
-            *pair = [*a, *b];
+/// The iterate as η: segment `k` takes components `2K·k … 2K·(k+1)` (zero past the
+/// search's segments, which the iterate leaves zero).
+fn to_eta<const K: usize>(v: &Col) -> Eta<K> {
+    let mut eta = one_segment([[0.0; 2]; K]);
+    for (segment, block) in eta.iter_mut().zip(v.chunks(2 * K)) {
+        for (pair, chunk) in segment.iter_mut().zip(block.chunks_exact(2)) {
+            if let [a, b] = chunk {
+                *pair = [*a, *b];
+            }
         }
     }
     eta

@@ -23,12 +23,13 @@ use crate::random::Stream;
 use crate::rollout::Outcome;
 use crate::swarm::Cost;
 use crate::task::Task;
+use crate::trajectory::{Eta, one_segment};
 
 /// What the planner evaluates next.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate<const K: usize> {
-    /// η as pairs `(a_i, b_i)`.
-    pub eta: [[f64; 2]; K],
+    /// η as pairs `(a_i, b_i)`, one set per segment of the task's motion.
+    pub eta: Eta<K>,
     /// Violation cap (rad): a rollout whose Φ exceeds it may be stopped early
     /// ([`crate::Rollout::with_violation_cap`]) because its result cannot change any
     /// decision of the optimizer; `f64::INFINITY` never stops early.
@@ -40,9 +41,15 @@ pub struct Candidate<const K: usize> {
 }
 
 impl<const K: usize> Candidate<K> {
-    /// A candidate without the truth model.
+    /// A candidate of one segment without the truth model.
     #[must_use]
     pub const fn plain(eta: [[f64; 2]; K], cap: f64) -> Self {
+        Self::segmented(one_segment(eta), cap)
+    }
+
+    /// A candidate of one η per segment without the truth model.
+    #[must_use]
+    pub const fn segmented(eta: Eta<K>, cap: f64) -> Self {
         Self {
             eta,
             cap,

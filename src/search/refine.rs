@@ -42,6 +42,7 @@ use crate::geometry::PoseError;
 use crate::optimizer::{Candidate, Evaluation, Event, Next, Observer, Optimizer, Stop};
 use crate::random::Stream;
 use crate::rollout::Outcome;
+use crate::trajectory::one_segment;
 
 /// Relative finite-difference step.
 const FD_STEP: f64 = 1e-7;
@@ -487,7 +488,7 @@ impl<const N: usize, const K: usize> Optimizer<N, K> for Refiner<N, K> {
     /// against the truth, the start point and the trials take the truth model along.
     fn candidate(&self) -> Candidate<K> {
         Candidate {
-            eta: self.next_eta(),
+            eta: one_segment(self.next_eta()),
             cap: if self.at_trial() { 0.0 } else { f64::INFINITY },
             truth: self.wants_truth(),
         }

@@ -32,6 +32,7 @@ use crate::refine::{RefineReport, RefineStop, Refiner};
 use crate::rollout::Outcome;
 use crate::swarm::Swarm;
 use crate::task::Task;
+use crate::trajectory::Eta;
 
 /// The running search: the chosen strategy's state, and only its.
 // The variants differ in size by design: the enum is the one place a strategy's state
@@ -120,10 +121,12 @@ impl<const N: usize, const K: usize, const P: usize> Search<N, K, P> {
     pub fn follow_up(
         &self,
         config: &PlannerConfig,
-        eta: [[f64; 2]; K],
+        eta: Eta<K>,
         outcome: Outcome<N>,
     ) -> Option<Refiner<N, K>> {
         let rc = config.refine()?;
+        // The refiners step on one segment's η (the planner refuses them for several).
+        let [eta, ..] = eta;
         match config.refine_against {
             RefineAgainst::Truth => Some(Refiner::against_truth(rc, eta, outcome)),
             RefineAgainst::Planner if self.refines_as_it_searches() => None,

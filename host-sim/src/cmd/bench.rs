@@ -195,7 +195,8 @@ fn bench_n<const N: usize, const K: usize>(
             eta = Some(p.eta);
             continue;
         }
-        etas.push(p.eta);
+        let [first, ..] = p.eta;
+        etas.push(first);
         plans.push(PlanRun {
             seed,
             wall_time_s: done.seconds,
@@ -210,10 +211,10 @@ fn bench_n<const N: usize, const K: usize>(
     let mut per_rollout = Vec::new();
     for _ in 0..21 {
         let start = Instant::now();
-        let o = task.rollout(&eta, &mut ()).or_failed(|| "rollout")?;
+        let o = task.rollout_of(&eta, &mut ()).or_failed(|| "rollout")?;
         per_rollout.push(start.elapsed().as_secs_f64() * 1e6);
         std::hint::black_box(o);
-        let mut r = Rollout::new(&task, &eta).or_failed(|| "rollout")?;
+        let mut r = Rollout::of(&task, &eta).or_failed(|| "rollout")?;
         loop {
             let t = Instant::now();
             let p = r.advance(&task, 100, &mut ()).or_failed(|| "rollout")?;

@@ -37,7 +37,7 @@ use crate::with_dims;
 use reactionless::TRUTH_SUBSTEPS;
 use reactionless::integrator::euler_step;
 use reactionless::retime::Setpoint;
-use reactionless::{IDENTITY_WXYZ, Sample, Sink, Task, TruthModel};
+use reactionless::{Eta, IDENTITY_WXYZ, Sample, Sink, Task, TruthModel};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -170,7 +170,7 @@ fn verify_retimed<const N: usize, const K: usize>(
     csv: &str,
 ) -> Result<Vec<Line>, CliError> {
     let task = lt.task::<N, K>()?;
-    let eta = parse_eta::<K>(&summary.eta)?;
+    let eta = parse_eta::<K>(&summary.eta, task.motion().segments())?;
     let written = retiming::read_csv::<N>(dir, csv)?;
     let qdd_deg = lt.qdd_max_deg::<N>(None)?.ok_or_else(|| {
         CliError::input(format!(
@@ -426,7 +426,7 @@ fn verify_n<const N: usize, const K: usize>(
     csv: &str,
 ) -> Result<Vec<Line>, CliError> {
     let task = lt.task::<N, K>()?;
-    let eta = parse_eta::<K>(eta)?;
+    let eta = parse_eta::<K>(eta, task.motion().segments())?;
     let written = read_trajectory_csv::<N>(dir, csv)?;
     let mut lines = shape(&task, &written);
     lines.push(matches_fresh_rollout(&task, &eta, &written));
@@ -471,11 +471,11 @@ fn shape<const N: usize, const K: usize>(task: &Task<N, K>, written: &[Sample<N>
 /// Every written value equals a fresh rollout of the recorded η, bit for bit.
 fn matches_fresh_rollout<const N: usize, const K: usize>(
     task: &Task<N, K>,
-    eta: &[[f64; 2]; K],
+    eta: &Eta<K>,
     written: &[Sample<N>],
 ) -> Line {
     let mut fresh = Vec::with_capacity(written.len());
-    let rerun = task.rollout(eta, &mut |s: &Sample<N>| fresh.push(*s));
+    let rerun = task.rollout_of(eta, &mut |s: &Sample<N>| fresh.push(*s));
     let mismatch = match &rerun {
         Err(e) => Some(format!("rollout of eta failed: {e}")),
         Ok(_) if fresh.len() != written.len() => Some(format!(

@@ -23,7 +23,7 @@ use crate::retiming;
 use crate::taskfile::{self, LoadedTask};
 use crate::view;
 use crate::with_dims;
-use reactionless::{Plan, Stop};
+use reactionless::{Plan, Stop, eta_flat};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -188,7 +188,7 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
         stop: p.stop.name(),
         asked: asked.describe(),
         strategy: p.strategy.name(),
-        eta: p.eta.iter().flatten().copied().collect(),
+        eta: eta_flat(&p.eta, task.motion().segments()).collect(),
         f: p.outcome.f,
         phi: p.outcome.phi,
         position_error_m: p.outcome.error.position_m(),

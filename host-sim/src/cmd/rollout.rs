@@ -60,9 +60,9 @@ fn run_n<const N: usize, const K: usize>(
 ) -> Result<(), CliError> {
     let (config, asked) = lt.plan_settings(HOST_CAPACITY, overrides)?;
     let task = lt.task::<N, K>()?;
-    let eta = parse_eta::<K>(eta)?;
+    let eta = parse_eta::<K>(eta, task.motion().segments())?;
     // Validate η before anything is created on disk.
-    Rollout::new(&task, &eta).map_err(eta_error)?;
+    Rollout::of(&task, &eta).map_err(eta_error)?;
     let dir = OutDir::create(out)?;
     let run = write_rollout(&task, &eta, Some(&dir), plots)?;
     dir.write_json(

@@ -456,7 +456,13 @@ fn host_retime(
     for (slot, v) in e.iter_mut().flatten().zip(eta) {
         *slot = *v;
     }
-    let r = crate::retiming::compute(task, &e, qdd_max_deg, grid, margin)?;
+    let r = crate::retiming::compute(
+        task,
+        &reactionless::one_segment(e),
+        qdd_max_deg,
+        grid,
+        margin,
+    )?;
     let last = r
         .setpoints
         .last()

@@ -654,6 +654,17 @@ fn a_plan_that_misses_the_asked_tolerance_is_not_converged() {
     assert!(csv.contains(",not_converged,"), "{csv}");
 }
 
+/// `host-sim plan` of the repository's task file `task` (a path from the root) into `out`.
+fn plan_into(task: &str, out: &Path) -> std::process::Output {
+    host_sim()
+        .arg("plan")
+        .arg(root().join(task))
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 /// A 6-joint arm reaches a target the truth model made only to the planner model's floor
 /// (5 unknowns for 6 pose equations): the default goal stops there after a few starts,
 /// reports the plan as stalled and names the floor and the way to reach the target.
@@ -662,13 +673,7 @@ fn a_plan_that_misses_the_asked_tolerance_is_not_converged() {
 fn a_six_joint_arm_reports_its_floor() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
-    let o = host_sim()
-        .arg("plan")
-        .arg(root().join("tests/records/tasks/arm6/task_002.toml"))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = plan_into("tests/records/tasks/arm6/task_002.toml", &out);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
@@ -1317,13 +1322,7 @@ fn block_writes_the_bytes_target_gives_qemu() {
 fn a_task_of_four_segments_plans_and_checks() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
-    let r = host_sim()
-        .arg("plan")
-        .arg(root().join("tests/tasks/fixed/segments/ref/1cm/ref-0.toml"))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let r = plan_into("tests/tasks/fixed/segments/ref/1cm/ref-0.toml", &out);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let plan: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();

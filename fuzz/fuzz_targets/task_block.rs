@@ -32,6 +32,7 @@ fn exercise(data: &[u8]) {
                     .eta
                     .iter()
                     .flatten()
+                    .flatten()
                     .chain(&p.outcome.q_final)
                     .chain(&scalars)
                 {

@@ -84,11 +84,7 @@ pub fn eta_from_flat<const K: usize>(flat: &[f64], segments: u32) -> Result<Eta<
     }
     let mut out = one_segment([[0.0; 2]; K]);
     for (seg, chunk) in out.iter_mut().zip(flat.chunks_exact(2 * K)) {
-        for (pair, ab) in seg.iter_mut().zip(chunk.chunks_exact(2)) {
-            if let [a, b] = ab {
-                *pair = [*a, *b];
-            }
-        }
+        *seg = eta_pairs::<K>(chunk)?;
     }
     Ok(out)
 }

@@ -1,7 +1,7 @@
 //! Diagnosis of the basin floors (issue #11): why do 6-joint arms stall near f ≈ 1e-7?
 //!
 //! ```sh
-//! cargo run --release -p host-sim --example floor -- tests/tasks/a/arm6/task_*.toml [--planner-target]
+//! cargo run --release -p host-sim --features research --example floor -- tests/tasks/a/arm6/task_*.toml [--planner-target]
 //! ```
 //! For each task: the generating η (from the task file's header comment) is rolled out with
 //! the planner model (base attitude identity) — `f_gen` is its f against the task target,

@@ -2,7 +2,7 @@
 //! point, counted in rollouts to truth_f ≤ 1e-9 (dense host maths, not flight code).
 //!
 //! ```sh
-//! cargo run --release -p host-sim --example lmproto -- --seeds 1..5 tests/tasks/b/chaser7/task_006.toml
+//! cargo run --release -p host-sim --features research --example lmproto -- --seeds 1..5 tests/tasks/b/chaser7/task_006.toml
 //! ```
 //! Variants: `base` (the Refiner: planner-model difference Jacobian rebuilt after every
 //! accepted step, λ/10 on accept, 10λ on reject), `nielsen` (Nielsen's λ update),

@@ -2,7 +2,7 @@
 //! reactionless segments reach targets that one segment cannot?
 //!
 //! ```sh
-//! cargo run --release -p host-sim --example segments -- --segments 1,2,3 --seeds 1..3 \
+//! cargo run --release -p host-sim --features research --example segments -- --segments 1,2,3 --seeds 1..3 \
 //!     tests/tasks/fixed/ref/1cm/*.toml
 //! ```
 //!

@@ -2,7 +2,7 @@
 //! the truth model do on a (task, seed), and why does it stop?
 //!
 //! ```sh
-//! cargo run --release -p host-sim --example stall -- --seeds 1..5 tests/tasks/b/chaser7/task_006.toml
+//! cargo run --release -p host-sim --features research --example stall -- --seeds 1..5 tests/tasks/b/chaser7/task_006.toml
 //! ```
 //! For each (task, seed) the planner runs as `plan --refine-tolerance 1e-9 --refine-against
 //! truth` does and the example prints: the search (rollouts, f), the refinement (stop,

@@ -68,7 +68,13 @@ fn splitmix(x: u64) -> u64 {
 
 /// The stream of `kind` for `sample` of the run seeded `seed`.
 pub fn stream(seed: u64, sample: u64, kind: Kind) -> Stream {
-    Stream::new(splitmix(splitmix(splitmix(seed) ^ sample) ^ kind as u64))
+    keyed_stream(seed, sample, kind as u64)
+}
+
+/// The stream keyed `(seed, sample, key)`: [`Kind`]'s keys here, the sensors' keys
+/// (`crate::sensors::Kind`, 16 and up) for a flight's measurements.
+pub fn keyed_stream(seed: u64, sample: u64, key: u64) -> Stream {
+    Stream::new(splitmix(splitmix(splitmix(seed) ^ sample) ^ key))
 }
 
 /// A standard normal truncated to `|z| ≤ c`: Box–Muller (the cosine branch) with libm,

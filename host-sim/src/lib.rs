@@ -29,6 +29,7 @@ pub mod plots;
 pub mod preshaping;
 pub mod records;
 pub mod retiming;
+pub mod sensors;
 pub mod shards;
 pub mod stats;
 pub mod taskfile;

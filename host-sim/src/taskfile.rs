@@ -44,6 +44,10 @@ pub struct TaskFile {
     /// `[preshape]`: when present, plan in two phases (spec §15, docs/twophase.md).
     #[serde(default)]
     pub preshape: Option<PreshapeSection>,
+    /// `[sensors]`: the truth model's sensors of a closed-loop flight (spec §12, see
+    /// `crate::sensors`).
+    #[serde(default)]
+    pub sensors: SensorsSection,
 }
 
 /// One number for every joint, or one per joint.
@@ -181,6 +185,97 @@ impl DispersionSection {
                 self.mass_rel_sigma,
                 self.truncation_sigmas
             )));
+        }
+        Ok(())
+    }
+}
+
+/// `[sensors]`: the truth model's sensors (spec §12; `crate::sensors`). Defaults: a 5″
+/// star tracker, a gyro of 0.01 °/√h and 0.05 °/h, 20-bit encoders, a 10 Hz control cycle
+/// with one period of latency, no dropouts.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorsSection {
+    /// Control period T_c (s, > 0): measurements at the start of each cycle.
+    pub control_period_s: f64,
+    /// Control periods between a measurement and the cycle its command is applied through
+    /// (0..=10; spec §12: 1).
+    pub latency_cycles: u32,
+    /// Star-tracker noise per axis, 1σ (arcsec, ≥ 0).
+    pub star_tracker_arcsec: f64,
+    /// Gyro angle random walk (deg/√h, ≥ 0).
+    pub gyro_arw_deg_rt_h: f64,
+    /// Gyro bias per axis, 1σ, constant over a flight (deg/h, ≥ 0).
+    pub gyro_bias_deg_h: f64,
+    /// Joint-encoder resolution (bits, 1..=40): 2π/2^bits rad per count.
+    pub encoder_bits: u32,
+    /// Wheel-momentum measurement noise per axis, 1σ (N m s, ≥ 0).
+    pub wheel_momentum_sigma_nms: f64,
+    /// Probability that any one measurement is missing (0 ≤ p < 1).
+    pub dropout_probability: f64,
+}
+
+impl Default for SensorsSection {
+    fn default() -> Self {
+        Self {
+            control_period_s: 0.1,
+            latency_cycles: 1,
+            star_tracker_arcsec: 5.0,
+            gyro_arw_deg_rt_h: 0.01,
+            gyro_bias_deg_h: 0.05,
+            encoder_bits: 20,
+            wheel_momentum_sigma_nms: 2e-4,
+            dropout_probability: 0.0,
+        }
+    }
+}
+
+impl SensorsSection {
+    /// Longest latency (control periods).
+    pub const MAX_LATENCY_CYCLES: u32 = 10;
+    /// Finest encoder (bits).
+    pub const MAX_ENCODER_BITS: u32 = 40;
+
+    /// Checks every value; `source(key)` names where a bad value came from (a flag or the
+    /// task file's key).
+    pub fn validate(&self, source: impl Fn(&str) -> String) -> Result<(), CliError> {
+        let bad = |key: &str, v: String, want: &str| {
+            Err(CliError::input(format!(
+                "{} = {v}: must be {want}",
+                source(key)
+            )))
+        };
+        for (key, v) in [
+            ("star_tracker_arcsec", self.star_tracker_arcsec),
+            ("gyro_arw_deg_rt_h", self.gyro_arw_deg_rt_h),
+            ("gyro_bias_deg_h", self.gyro_bias_deg_h),
+            ("wheel_momentum_sigma_nms", self.wheel_momentum_sigma_nms),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(key, v.to_string(), "a finite number >= 0");
+            }
+        }
+        let t = self.control_period_s;
+        if !(t.is_finite() && t > 0.0) {
+            return bad("control_period_s", t.to_string(), "a finite number > 0 (s)");
+        }
+        let p = self.dropout_probability;
+        if !(p.is_finite() && (0.0..1.0).contains(&p)) {
+            return bad("dropout_probability", p.to_string(), "in [0, 1)");
+        }
+        if self.latency_cycles > Self::MAX_LATENCY_CYCLES {
+            return bad(
+                "latency_cycles",
+                self.latency_cycles.to_string(),
+                "an integer in 0..=10",
+            );
+        }
+        if !(1..=Self::MAX_ENCODER_BITS).contains(&self.encoder_bits) {
+            return bad(
+                "encoder_bits",
+                self.encoder_bits.to_string(),
+                "an integer in 1..=40",
+            );
         }
         Ok(())
     }
@@ -586,6 +681,9 @@ impl LoadedTask {
         self.file
             .dispersion
             .validate(|key| format!("{}: [dispersion] {key}", self.path.display()))?;
+        self.file
+            .sensors
+            .validate(|key| format!("{}: [sensors] {key}", self.path.display()))?;
         self.asked(&self.file.planner, false)?;
         if let Some(ps) = &self.file.preshape {
             ps.config(1e-6, 1, 0.01).validate().map_err(|e| {

@@ -6,15 +6,15 @@
 # (plan.json, summary.json, trajectory.csv, task.toml, robot.urdf), prints a short summary,
 # and checks the written trajectory independently (host-sim check): the last line is its
 # verdict.
-# RUN_PROFILE=release uses the release build instead (CI: the one its earlier steps built).
+# HOST_SIM=PATH runs a host-sim already built instead (CI: the one its test step built).
 set -euo pipefail
 cd "$(dirname "$0")"
-profile=${RUN_PROFILE:-test}
-cargo build --profile "$profile" -p host-sim
-case "$profile" in
-  test | dev) H=target/debug/host-sim ;;
-  *) H=target/$profile/host-sim ;;
-esac
+if [ -n "${HOST_SIM:-}" ]; then
+  H=$HOST_SIM
+else
+  cargo build --profile test -p host-sim
+  H=target/debug/host-sim
+fi
 "$H" plan spec/tasks/paper.toml --out out/paper
 echo
 "$H" check out/paper

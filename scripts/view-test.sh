@@ -11,7 +11,8 @@
 #    the base angle with summary.json's base_disturbance_deg, t with the nearest sample;
 #  - takes a screenshot and checks it is not blank: the robot's pixels (link colour)
 #    differ from the background.
-# Needs chromium (apt-get install -y chromium) and python3; builds host-sim if needed.
+# Needs chromium (apt-get install -y chromium) and python3; builds host-sim (release) unless
+# HOST_SIM names one.
 # Usage: scripts/view-test.sh [OUT_DIR]   (default target/view-test). Verifies RL-SIM-VIEW-001..004.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,8 +22,13 @@ command -v "$CHROMIUM" >/dev/null || {
   echo "view-test: $CHROMIUM not found (apt-get install -y chromium)" >&2
   exit 2
 }
-cargo build -q --release -p host-sim
-H=target/release/host-sim
+# HOST_SIM: a host-sim already built (CI: its test step's); else the release build.
+if [ -n "${HOST_SIM:-}" ]; then
+  H=$HOST_SIM
+else
+  cargo build -q --release -p host-sim
+  H=target/release/host-sim
+fi
 rm -rf "$OUT"
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)

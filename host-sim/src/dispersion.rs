@@ -79,7 +79,8 @@ pub fn keyed_stream(seed: u64, sample: u64, key: u64) -> Stream {
 
 /// A standard normal truncated to `|z| ≤ c`: Box–Muller (the cosine branch) with libm,
 /// redrawn beyond `c`; after [`MAX_REDRAWS`] (never seen for `c ≥ 1`) it is clamped.
-fn normal(s: &mut Stream, c: f64) -> f64 {
+/// `c = ∞` gives an untruncated normal from exactly two draws (the sensors' noise).
+pub(crate) fn normal(s: &mut Stream, c: f64) -> f64 {
     let mut z = 0.0;
     for _ in 0..MAX_REDRAWS {
         let u1 = 1.0 - s.uniform(); // (0, 1]

@@ -27,7 +27,7 @@
 //! others; and a noise-free sensor (σ = 0) still draws, so setting one σ to 0 leaves the
 //! other sensors' noise bit for bit.
 
-use crate::dispersion::keyed_stream;
+use crate::dispersion::{keyed_stream, normal};
 pub use crate::taskfile::SensorsSection as Settings;
 use reactionless::geometry::{Vec3, normalized, quat_exp, quat_mul};
 use reactionless::random::Stream;
@@ -58,18 +58,12 @@ pub enum Kind {
 /// Radians per arcsecond.
 pub const RAD_PER_ARCSEC: f64 = core::f64::consts::PI / (180.0 * 3600.0);
 
-/// A standard normal draw (Box–Muller, the cosine branch, libm: the same on every host).
-fn normal(s: &mut Stream) -> f64 {
-    let u1 = 1.0 - s.uniform(); // (0, 1]
-    let u2 = s.uniform();
-    libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(2.0 * core::f64::consts::PI * u2)
-}
-
-/// Three independent normal draws of standard deviation `sigma`.
+/// Three independent normal draws of standard deviation `sigma` (the dispersion's
+/// Box–Muller, untruncated).
 fn normal3(s: &mut Stream, sigma: f64) -> [f64; 3] {
-    let x = normal(s);
-    let y = normal(s);
-    let z = normal(s);
+    let x = normal(s, f64::INFINITY);
+    let y = normal(s, f64::INFINITY);
+    let z = normal(s, f64::INFINITY);
     [sigma * x, sigma * y, sigma * z]
 }
 

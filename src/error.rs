@@ -108,6 +108,33 @@ pub enum Param {
     Joints,
     /// Number of segments of a motion ([`crate::Motion::with_segments`]).
     Segments,
+    /// Control period `T_c` of the closed loop (s), spec §12.
+    ControlPeriod,
+    /// Base-attitude gain of the closed loop (1/s).
+    BaseGain,
+    /// End-effector gain of the closed loop (1/s).
+    EeGain,
+    /// Damping of the closed loop's base pseudo-inverse.
+    BaseDamping,
+    /// Damping of the closed loop's end-effector pseudo-inverse (m/rad).
+    EeDamping,
+    /// Length weighing orientation against position in the closed loop's end-effector
+    /// task (m).
+    OrientationLength,
+    /// Pull of the closed loop's attitude estimate toward a star-tracker reading.
+    FilterGain,
+    /// Base attitude error that sends the closed loop to its safe state (rad).
+    BaseLimit,
+    /// Largest joint tracking error of the closed loop (rad).
+    TrackingTolerance,
+    /// Largest gyro rate in range (rad/s).
+    GyroRange,
+    /// Joint acceleration limit of the closed loop (rad/s²).
+    LoopAccel,
+    /// Weight of the end effector's motion in the closed loop's base correction (1/m²).
+    DragWeight,
+    /// Pull of the closed loop's drift estimate toward each cycle's.
+    DriftGain,
 }
 
 impl Param {
@@ -157,6 +184,19 @@ impl Param {
             Param::StandoffAngle => "preshape.standoff_deg",
             Param::BaseDisturbance => "check.max_base_disturbance_deg",
             Param::Segments => "motion.segments",
+            Param::ControlPeriod => "sensors.control_period_s",
+            Param::BaseGain => "closed_loop.base_gain_per_s",
+            Param::EeGain => "closed_loop.ee_gain_per_s",
+            Param::BaseDamping => "closed_loop.base_damping",
+            Param::EeDamping => "closed_loop.ee_damping_m",
+            Param::OrientationLength => "closed_loop.orientation_length_m",
+            Param::FilterGain => "closed_loop.filter_gain",
+            Param::BaseLimit => "closed_loop.base_limit_deg",
+            Param::TrackingTolerance => "closed_loop.tracking_tolerance_deg",
+            Param::GyroRange => "closed_loop.max_gyro_rate_deg_s",
+            Param::LoopAccel => "closed_loop.qdd_max_deg_s2",
+            Param::DragWeight => "closed_loop.drag_weight_per_m2",
+            Param::DriftGain => "closed_loop.drift_gain",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -310,6 +350,9 @@ pub enum Error {
     NotTwoPhase,
     /// A re-timing margin factor above 1 (it must lie in (0, 1]).
     MarginAboveOne,
+    /// A closed-loop setting out of its range ([`crate::closed_loop::LoopConfig`]): a
+    /// filter gain above 1, or a control period that does not divide `t_f`.
+    LoopSetting(Param),
     /// The `t_f/dt` steps do not split into `segments` equal segments.
     SegmentsUneven {
         /// The segment count asked for.
@@ -408,6 +451,19 @@ impl fmt::Display for Param {
             Param::BaseDisturbance => f.write_str("base disturbance limit"),
             Param::Joints => f.write_str("number of joints"),
             Param::Segments => f.write_str("segment count"),
+            Param::ControlPeriod => f.write_str("control period"),
+            Param::BaseGain => f.write_str("closed-loop base gain"),
+            Param::EeGain => f.write_str("closed-loop end-effector gain"),
+            Param::BaseDamping => f.write_str("closed-loop base damping"),
+            Param::EeDamping => f.write_str("closed-loop end-effector damping"),
+            Param::OrientationLength => f.write_str("closed-loop orientation length"),
+            Param::FilterGain => f.write_str("attitude filter gain"),
+            Param::BaseLimit => f.write_str("closed-loop base error limit"),
+            Param::TrackingTolerance => f.write_str("joint tracking tolerance"),
+            Param::GyroRange => f.write_str("gyro range"),
+            Param::LoopAccel => f.write_str("closed-loop acceleration limit"),
+            Param::DragWeight => f.write_str("closed-loop drag weight"),
+            Param::DriftGain => f.write_str("drift estimate gain"),
         }
     }
 }
@@ -474,6 +530,14 @@ impl fmt::Display for Error {
                 f.write_str("a single-phase task block (no two-phase settings): plan it with the planner")
             }
             Error::MarginAboveOne => f.write_str("retime margin must lie in (0, 1]"),
+            Error::LoopSetting(Param::FilterGain) => {
+                f.write_str("attitude filter gain must lie in (0, 1]")
+            }
+            Error::LoopSetting(Param::DriftGain) => f.write_str("drift gain must lie in [0, 1]"),
+            Error::LoopSetting(Param::ControlPeriod) => {
+                f.write_str("control period must divide t_f into a whole number of cycles")
+            }
+            Error::LoopSetting(p) => write!(f, "{p} is out of range"),
             Error::SegmentsUneven { segments } => write!(
                 f,
                 "the t_f/dt integration steps do not split into {segments} equal segments"

@@ -72,7 +72,7 @@ pub mod search;
 
 // Every module keeps its flat path (`reactionless::planner`, `crate::rollout`): the folders
 // group them by layer, the paths stay what they were.
-pub use flight::{block, execute, planner, reference, twophase};
+pub use flight::{block, closed_loop, execute, planner, reference, twophase};
 pub use path::{batch, digest, integrator, preshape, retime, rollout, task, trajectory, truth};
 pub use physics::{geometry, kinematics, model, momentum, nullspace};
 pub use search::{config, cpso, multistart, optimizer, random, refine, strategy, swarm};

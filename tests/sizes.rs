@@ -89,3 +89,27 @@ fn documented_two_phase_sizes() {
         ]
     );
 }
+
+/// The closed-loop executor's state and one cycle's command (docs/core.md).
+#[test]
+fn documented_closed_loop_sizes() {
+    use reactionless::closed_loop::{Command, Executor, LoopConfig, Measurement};
+    let sizes = [
+        ("LoopConfig", size_of::<LoopConfig>()),
+        ("Executor<7>", size_of::<Executor<7>>()),
+        ("Measurement<7>", size_of::<Measurement<7>>()),
+        ("Command<7>", size_of::<Command<7>>()),
+    ];
+    for (name, size) in sizes {
+        println!("{name}: {size} bytes");
+    }
+    assert_eq!(
+        sizes,
+        [
+            ("LoopConfig", 112),
+            ("Executor<7>", 704),
+            ("Measurement<7>", 136),
+            ("Command<7>", 120),
+        ]
+    );
+}

@@ -8,11 +8,13 @@
 //! ([`Report`], [`markdown`]). Everything here is a function of the rows and the run's
 //! settings, so shards merged give what one machine writes.
 
+use crate::closed_loop::{LoopFigures, LoopSection};
 use crate::dispersion::{Draw, Figures, Sensitivity, Settings, body_label};
 use crate::error::{CliError, Context};
 use crate::goal::number;
 use crate::output::OutDir;
 use crate::plots;
+use crate::sensors::Settings as SensorSettings;
 use crate::stats::{max, percentile};
 use crate::urdf::Chain;
 use serde::{Deserialize, Serialize};
@@ -27,6 +29,8 @@ pub struct Row {
     pub figures: Figures,
     /// Drawn parameters.
     pub draw: Draw,
+    /// The closed loop's figures (a `--closed-loop` run only).
+    pub loop_figures: Option<LoopFigures>,
 }
 
 /// How to read one figure from [`Figures`].
@@ -78,10 +82,28 @@ pub const FIGURES: [FigureColumn; 5] = [
     },
 ];
 
-/// The header of `runs.csv` for `chain`.
-pub fn header(chain: &Chain) -> Vec<String> {
+/// How to read one closed-loop figure.
+pub type LoopGetter = fn(&LoopFigures) -> f64;
+
+/// The closed loop's columns of `runs.csv` (after the figures, `--closed-loop` only): name
+/// (unit included) and how to read it.
+pub const LOOP_COLUMNS: [(&str, LoopGetter); 7] = [
+    ("extra_time_s", |f| f.extra_time_s),
+    ("extra_travel_deg", |f| f.extra_travel_deg),
+    ("largest_command_deg_s", |f| f.largest_command_deg_s),
+    ("largest_rate_fraction", |f| f.largest_rate_fraction),
+    ("limited_cycles", |f| f64::from(f.limited_cycles)),
+    ("rate_violations", |f| f64::from(f.rate_violations)),
+    ("safe_stop", |f| if f.safe_stop { 1.0 } else { 0.0 }),
+];
+
+/// The header of `runs.csv` for `chain`, with the closed loop's columns if `closed`.
+pub fn header(chain: &Chain, closed: bool) -> Vec<String> {
     let mut h = vec!["sample".to_string()];
     h.extend(FIGURES.iter().map(|c| c.name.to_string()));
+    if closed {
+        h.extend(LOOP_COLUMNS.iter().map(|(n, _)| n.to_string()));
+    }
     h.extend(
         [
             "base_rate_x_deg_s",
@@ -116,6 +138,9 @@ fn num(v: f64) -> String {
 pub fn record(r: &Row) -> Vec<String> {
     let mut out = vec![r.sample.to_string()];
     out.extend(FIGURES.iter().map(|c| num((c.get)(&r.figures))));
+    if let Some(l) = &r.loop_figures {
+        out.extend(LOOP_COLUMNS.iter().map(|(_, get)| num(get(l))));
+    }
     out.extend(r.draw.base_rate.iter().map(|w| num(w.to_degrees())));
     for ((m, c), i) in r.draw.mass.iter().zip(&r.draw.com).zip(&r.draw.inertia) {
         out.push(num(*m));
@@ -131,7 +156,9 @@ pub fn record(r: &Row) -> Vec<String> {
 /// `runs.csv` as text: the header, then the rows in the order given.
 pub fn runs_csv(chain: &Chain, rows: &[Row]) -> Result<Vec<u8>, CliError> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(header(chain)).or_internal(|| "runs.csv")?;
+    let closed = rows.first().is_some_and(|r| r.loop_figures.is_some());
+    w.write_record(header(chain, closed))
+        .or_internal(|| "runs.csv")?;
     for r in rows {
         w.write_record(record(r)).or_internal(|| "runs.csv")?;
     }
@@ -178,6 +205,40 @@ pub fn read_figures(origin: &str, text: &str) -> Result<Vec<(u64, Figures)>, Cli
         ));
     }
     Ok(out)
+}
+
+/// The closed loop's figures of every row of a `runs.csv` text, `None` if it has no
+/// closed-loop columns (an open-loop run).
+pub fn read_loop_figures(origin: &str, text: &str) -> Result<Option<Vec<LoopFigures>>, CliError> {
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    let head = r.headers().or_input(|| origin)?.clone();
+    let cols: Option<Vec<usize>> = LOOP_COLUMNS
+        .iter()
+        .map(|(n, _)| head.iter().position(|h| h == *n))
+        .collect();
+    let Some(cols) = cols else {
+        return Ok(None);
+    };
+    let mut out = Vec::new();
+    for (k, rec) in r.records().enumerate() {
+        let rec = rec.or_input(|| format!("{origin}: row {}", k + 1))?;
+        let get = |i: usize| -> Result<f64, CliError> {
+            rec.get(cols[i])
+                .unwrap_or("")
+                .parse::<f64>()
+                .or_input(|| format!("{origin}: row {}, column {}", k + 1, LOOP_COLUMNS[i].0))
+        };
+        out.push(LoopFigures {
+            extra_time_s: get(0)?,
+            extra_travel_deg: get(1)?,
+            largest_command_deg_s: get(2)?,
+            largest_rate_fraction: get(3)?,
+            limited_cycles: get(4)? as u32,
+            rate_violations: get(5)? as u32,
+            safe_stop: get(6)? != 0.0,
+        });
+    }
+    Ok(Some(out))
 }
 
 /// The statistics of one figure.
@@ -253,6 +314,64 @@ impl Statistics {
     }
 }
 
+/// The statistics of the closed loop's figures over the samples.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct LoopStatistics {
+    /// End of flight − t_f (s).
+    pub extra_time_s: Stat,
+    /// Extra joint travel (deg).
+    pub extra_travel_deg: Stat,
+    /// Largest commanded joint rate (deg/s).
+    pub largest_command_deg_s: Stat,
+    /// Largest commanded rate over the joint's limit.
+    pub largest_rate_fraction: Stat,
+    /// Commands beyond a rate limit, over every sample.
+    pub rate_violations: u64,
+    /// Samples that ended in the safe state.
+    pub safe_stops: u64,
+    /// Cycles whose command a limit changed, over every sample.
+    pub limited_cycles: u64,
+}
+
+impl LoopStatistics {
+    /// Over `figures`, in sample order.
+    pub fn of(figures: &[LoopFigures]) -> Self {
+        let col = |k: usize| -> Stat {
+            let v: Vec<f64> = figures.iter().map(|f| (LOOP_COLUMNS[k].1)(f)).collect();
+            Stat::of(&v)
+        };
+        Self {
+            extra_time_s: col(0),
+            extra_travel_deg: col(1),
+            largest_command_deg_s: col(2),
+            largest_rate_fraction: col(3),
+            rate_violations: figures.iter().map(|f| u64::from(f.rate_violations)).sum(),
+            safe_stops: figures.iter().filter(|f| f.safe_stop).count() as u64,
+            limited_cycles: figures.iter().map(|f| u64::from(f.limited_cycles)).sum(),
+        }
+    }
+}
+
+/// What a `--closed-loop` run adds to `summary.json`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct ClosedLoopSummary {
+    /// The sensors (the task's `[sensors]`).
+    pub sensors: SensorSettings,
+    /// The executor's settings (the task's `[closed_loop]`).
+    pub settings: LoopSection,
+    /// The nominal robot flown closed-loop with noise-free sensors (20-bit encoders still
+    /// quantise): what the loop does where nothing is wrong.
+    pub nominal_noise_free: Figures,
+    /// The closed loop's figures of that flight.
+    pub nominal_loop: LoopFigures,
+    /// Statistics of the closed loop's figures over the samples.
+    pub statistics: LoopStatistics,
+}
+
+fn open_loop() -> String {
+    "open_loop".into()
+}
+
 /// What the directory's own `summary.json` says (plan and rollout: the nominal truth
 /// model's figures; a re-timed bundle: its base disturbance only).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -285,8 +404,16 @@ pub struct Report {
     pub dir_summary: DirSummary,
     /// Statistics over the samples.
     pub statistics: Statistics,
-    /// One-at-a-time sensitivity (+1σ of each dispersed parameter).
+    /// One-at-a-time sensitivity (+1σ of each dispersed parameter) of the open-loop
+    /// flight (empty for a closed-loop run).
     pub sensitivity: Vec<Sensitivity>,
+    /// `open_loop`: the path flown as written; `closed_loop`: flown by the core's executor
+    /// on the truth model's sensors (`closed_loop` then holds its settings and figures).
+    #[serde(default = "open_loop")]
+    pub mode: String,
+    /// The closed loop's settings and figures (`mode` = `closed_loop`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub closed_loop: Option<ClosedLoopSummary>,
 }
 
 /// `sensitivity.csv` as text.
@@ -344,6 +471,46 @@ pub fn markdown(r: &Report) -> String {
             number(s.p99),
             number(s.max),
             number(s.mean)
+        );
+    }
+    if let Some(c) = &r.closed_loop {
+        let _ = writeln!(
+            out,
+            "\nFlown closed-loop: the core's executor at {} Hz on the truth model's sensors (star tracker {}″, gyro {} °/√h and {} °/h, {}-bit encoders, dropout probability {}). The nominal column is the nominal robot with noise-free sensors.\n\n| closed loop | nominal | p50 | p95 | p99 | max | mean |\n|---|---|---|---|---|---|---|",
+            number(1.0 / c.sensors.control_period_s),
+            number(c.sensors.star_tracker_arcsec),
+            number(c.sensors.gyro_arw_deg_rt_h),
+            number(c.sensors.gyro_bias_deg_h),
+            c.sensors.encoder_bits,
+            number(c.sensors.dropout_probability),
+        );
+        let stats = [
+            &c.statistics.extra_time_s,
+            &c.statistics.extra_travel_deg,
+            &c.statistics.largest_command_deg_s,
+            &c.statistics.largest_rate_fraction,
+        ];
+        for ((name, get), s) in LOOP_COLUMNS.iter().zip(stats) {
+            let _ = writeln!(
+                out,
+                "| {name} | {} | {} | {} | {} | {} | {} |",
+                number(get(&c.nominal_loop)),
+                number(s.p50),
+                number(s.p95),
+                number(s.p99),
+                number(s.max),
+                number(s.mean)
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\nCommands beyond a rate limit: {}. Samples ended in the safe state: {}. Cycles whose command a limit changed: {}.\n\nThe nominal robot, noise-free sensors: base disturbance {} deg, end effector {} m and {} deg off.",
+            c.statistics.rate_violations,
+            c.statistics.safe_stops,
+            c.statistics.limited_cycles,
+            number(c.nominal_noise_free.base_disturbance_deg),
+            number(c.nominal_noise_free.position_error_m),
+            number(c.nominal_noise_free.orientation_error_deg),
         );
     }
     let limit = BASE_LIMIT_DEG;
@@ -475,6 +642,8 @@ mod tests {
                 d_position_error_m: -7.582e-4,
                 d_orientation_error_deg: 0.0,
             }],
+            mode: "open_loop".into(),
+            closed_loop: None,
         };
         let md = markdown(&report);
         for want in [

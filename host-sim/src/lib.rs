@@ -6,7 +6,8 @@
 //!
 //! Data flows one way: `taskfile`/`urdf` (inputs, with `goal`: what a plan must reach) → `drive` (the planner) → `artifacts`,
 //! `records`, `plots`, `view` (outputs, through `output`'s atomic writes), `flight` (the task
-//! block of the flight image and C clients) → `cmd/*` (one leaf per
+//! block of the flight image and C clients), `dispersion`/`sensors` → `closed_loop` (the
+//! core's executor flown on the truth model) → `cmd/*` (one leaf per
 //! subcommand, which only these shared modules feed). `version` names the build in every
 //! output that carries one.
 // A host tool: an out-of-range index here is a bug that should stop the program loudly.
@@ -16,6 +17,7 @@ pub mod args;
 pub mod artifacts;
 pub mod campaign_report;
 pub mod cli;
+pub mod closed_loop;
 pub mod cmd;
 pub mod dispatch;
 pub mod dispersion;

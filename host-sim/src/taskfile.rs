@@ -48,6 +48,10 @@ pub struct TaskFile {
     /// `crate::sensors`).
     #[serde(default)]
     pub sensors: SensorsSection,
+    /// `[closed_loop]`: the executor of a closed-loop flight (`disperse --closed-loop`,
+    /// see `crate::closed_loop`).
+    #[serde(default)]
+    pub closed_loop: LoopSection,
 }
 
 /// One number for every joint, or one per joint.
@@ -213,6 +217,119 @@ pub struct SensorsSection {
     pub wheel_momentum_sigma_nms: f64,
     /// Probability that any one measurement is missing (0 ≤ p < 1).
     pub dropout_probability: f64,
+}
+
+/// `[closed_loop]`: the executor's gains, filter and fault settings (the control period
+/// is `[sensors] control_period_s`). Defaults: [`reactionless::closed_loop::LoopConfig::DEFAULT`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoopSection {
+    /// Base-attitude gain k_b (1/s, ≥ 0).
+    pub base_gain_per_s: f64,
+    /// End-effector gain k_e (1/s, ≥ 0; 0 turns the end-effector task off).
+    pub ee_gain_per_s: f64,
+    /// Damping of the base pseudo-inverse (≥ 0).
+    pub base_damping: f64,
+    /// Damping of the end-effector pseudo-inverse (m, > 0 when ee_gain_per_s > 0).
+    pub ee_damping_m: f64,
+    /// Length weighing orientation against position in the end-effector task (m, > 0).
+    pub orientation_length_m: f64,
+    /// Weight of the end effector's motion in the base correction (1/m², ≥ 0; 0: the
+    /// minimum-norm joint rate).
+    pub drag_weight_per_m2: f64,
+    /// Pull of the attitude estimate toward each star-tracker reading (0 < g ≤ 1).
+    pub filter_gain: f64,
+    /// Pull of the drift estimate (the base rate the model does not explain) toward each
+    /// cycle's (0 ≤ g ≤ 1; 0: no drift feed-forward).
+    pub drift_gain: f64,
+    /// Consecutive cycles a sensor may be missing before the safe state.
+    pub max_missing_cycles: u32,
+    /// Base attitude estimate beyond which the arm stops (deg, > 0).
+    pub base_limit_deg: f64,
+    /// Largest joint tracking error before the safe state (deg, > 0).
+    pub tracking_tolerance_deg: f64,
+    /// Largest gyro rate in range (deg/s, > 0).
+    pub max_gyro_rate_deg_s: f64,
+    /// Joint acceleration limit of every command change and of the stop (deg/s², > 0).
+    pub qdd_max_deg_s2: f64,
+    /// Correction time after t_f (s, ≥ 0; a whole number of control periods).
+    pub extend_s: f64,
+}
+
+impl Default for LoopSection {
+    fn default() -> Self {
+        let d = reactionless::closed_loop::LoopConfig::DEFAULT;
+        Self {
+            base_gain_per_s: d.base_gain,
+            ee_gain_per_s: d.ee_gain,
+            base_damping: d.base_damping,
+            ee_damping_m: d.ee_damping,
+            orientation_length_m: d.orientation_length,
+            drag_weight_per_m2: d.drag_weight,
+            filter_gain: d.filter_gain,
+            drift_gain: d.drift_gain,
+            max_missing_cycles: d.max_missing_cycles,
+            base_limit_deg: d.base_limit.to_degrees(),
+            tracking_tolerance_deg: d.tracking_tolerance.to_degrees(),
+            max_gyro_rate_deg_s: d.max_gyro_rate.to_degrees(),
+            qdd_max_deg_s2: d.qdd_max.to_degrees(),
+            extend_s: f64::from(d.extend_cycles) * d.period,
+        }
+    }
+}
+
+impl LoopSection {
+    /// The core's settings for the control period `period` (s); `source(key)` names where
+    /// a bad value came from.
+    pub fn config(
+        &self,
+        period: f64,
+        source: impl Fn(&str) -> String,
+    ) -> Result<reactionless::closed_loop::LoopConfig, CliError> {
+        let cycles = (self.extend_s / period).round();
+        if !(self.extend_s.is_finite() && self.extend_s >= 0.0)
+            || (cycles * period - self.extend_s).abs() > 1e-9 * period.max(self.extend_s)
+            || cycles > 1e6
+        {
+            return Err(CliError::input(format!(
+                "{} = {}: must be a whole number of control periods ({period} s), >= 0",
+                source("extend_s"),
+                self.extend_s
+            )));
+        }
+        let c = reactionless::closed_loop::LoopConfig {
+            period,
+            base_gain: self.base_gain_per_s,
+            ee_gain: self.ee_gain_per_s,
+            base_damping: self.base_damping,
+            ee_damping: self.ee_damping_m,
+            orientation_length: self.orientation_length_m,
+            drag_weight: self.drag_weight_per_m2,
+            filter_gain: self.filter_gain,
+            drift_gain: self.drift_gain,
+            max_missing_cycles: self.max_missing_cycles,
+            base_limit: self.base_limit_deg.to_radians(),
+            tracking_tolerance: self.tracking_tolerance_deg.to_radians(),
+            max_gyro_rate: self.max_gyro_rate_deg_s.to_radians(),
+            qdd_max: self.qdd_max_deg_s2.to_radians(),
+            extend_cycles: cycles as u32,
+        };
+        c.validate().map_err(|e| {
+            let key = match &e {
+                reactionless::Error::NotFinite(p)
+                | reactionless::Error::NotPositive(p)
+                | reactionless::Error::Negative(p)
+                | reactionless::Error::LoopSetting(p) => p.key(),
+                _ => None,
+            };
+            let name = key.map_or_else(String::new, |k| {
+                let k = k.rsplit('.').next().unwrap_or(k);
+                format!("{}: ", source(k))
+            });
+            CliError::input(format!("{name}{e}"))
+        })?;
+        Ok(c)
+    }
 }
 
 impl Default for SensorsSection {
@@ -547,6 +664,15 @@ fn toml_error(shown: &impl std::fmt::Display, e: &toml::de::Error) -> CliError {
 }
 
 impl LoadedTask {
+    /// The closed loop's settings: `[closed_loop]` at `[sensors] control_period_s`.
+    pub fn loop_config(&self) -> Result<reactionless::closed_loop::LoopConfig, CliError> {
+        self.file
+            .closed_loop
+            .config(self.file.sensors.control_period_s, |key| {
+                format!("{}: [closed_loop] {key}", self.path.display())
+            })
+    }
+
     /// The task as a self-contained bundle: the task file re-written with `[robot] urdf =
     /// "robot.urdf"` and, for a plan, every planner setting it used (`used`: the whole
     /// `[planner]` table, flags applied and the refinement tolerance resolved, and `[target]
@@ -684,6 +810,7 @@ impl LoadedTask {
         self.file
             .sensors
             .validate(|key| format!("{}: [sensors] {key}", self.path.display()))?;
+        self.loop_config()?;
         self.asked(&self.file.planner, false)?;
         if let Some(ps) = &self.file.preshape {
             ps.config(1e-6, 1, 0.01).validate().map_err(|e| {

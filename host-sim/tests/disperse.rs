@@ -137,17 +137,87 @@ fn zero_sigmas_reproduce_the_nominal_truth_model_bit_for_bit() {
 fn jobs_and_shards_do_not_change_the_results() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = rollout(tmp.path());
-    let one = tmp.path().join("one");
-    let mut args: Vec<&str> = DISPERSED.to_vec();
-    args.extend(["--samples", "7"]);
+    let one = same_over_jobs_and_shards(tmp.path(), &dir, &[]);
+    // The draws really moved the figures, and the drawn parameters are in the table.
+    let csv = read(&one.join("runs.csv"));
+    assert_eq!(csv.lines().count(), 1 + 7);
+    assert!(csv.lines().next().unwrap().contains("link3.mass_kg"));
+    let s = json(&one.join("summary.json"));
+    assert_eq!(s["mode"], "open_loop");
+    assert_ne!(
+        s["statistics"]["base_disturbance_deg"]["max"],
+        s["nominal"]["base_disturbance_deg"]
+    );
+}
+
+/// `--closed-loop` flies the same robots as the open-loop run of the same seed (the drawn
+/// columns of runs.csv are equal), adds the closed loop's columns and summary, commands
+/// nothing beyond a rate limit, holds the base better than the open loop, and writes the
+/// same files for any `--jobs` and any sharding.
+/// Verifies RL-SIM-LOOP-001.
+#[test]
+fn closed_loop_runs_fly_the_same_robots_over_jobs_and_shards() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = rollout(tmp.path());
+    let closed = same_over_jobs_and_shards(tmp.path(), &dir, &["--closed-loop"]);
+    let open = tmp.path().join("open");
     ok(&disperse(
         &dir,
+        &open,
+        &[&DISPERSED[..], &["--samples", "7"]].concat(),
+    ));
+    let table = |p: &Path| -> Vec<Vec<String>> {
+        let text = read(&p.join("runs.csv"));
+        text.lines()
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect()
+    };
+    let (c, o) = (table(&closed), table(&open));
+    let extra = host_sim::dispersion_report::LOOP_COLUMNS.len();
+    assert_eq!(c[0].len(), o[0].len() + extra);
+    assert_eq!(c[0][6], "extra_time_s");
+    for (rc, ro) in c.iter().zip(&o) {
+        // sample, then the drawn parameters after the figures (and the loop's columns).
+        assert_eq!(rc[0], ro[0]);
+        assert_eq!(rc[6 + extra..], ro[6..]);
+    }
+    let s = json(&closed.join("summary.json"));
+    let so = json(&open.join("summary.json"));
+    assert_eq!(s["mode"], "closed_loop");
+    let cl = &s["closed_loop"];
+    assert_eq!(cl["statistics"]["rate_violations"], 0);
+    assert_eq!(cl["statistics"]["safe_stops"], 0);
+    assert!(cl["statistics"]["extra_time_s"]["max"].as_f64().unwrap() <= 3.0 + 1e-9);
+    let base = |v: &Value| {
+        v["statistics"]["base_disturbance_deg"]["max"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        base(&s) < 0.25 * base(&so),
+        "{} against {}",
+        base(&s),
+        base(&so)
+    );
+    assert!(read(&closed.join("summary.md")).contains("Flown closed-loop"));
+}
+
+/// Runs `disperse` of 7 samples with `extra` at `--jobs` 1 and 2 and in 2 and 3 shards
+/// merged, asserts every file is the same, and returns the first run's directory.
+fn same_over_jobs_and_shards(tmp: &Path, dir: &Path, extra: &[&str]) -> PathBuf {
+    let tag = extra.concat().replace('-', "");
+    let one = tmp.join(format!("one{tag}"));
+    let mut args: Vec<&str> = DISPERSED.to_vec();
+    args.extend(["--samples", "7"]);
+    args.extend(extra);
+    ok(&disperse(
+        dir,
         &one,
         &[&args[..], &["--jobs", "1"]].concat(),
     ));
-    let two = tmp.path().join("two");
+    let two = tmp.join("two");
     ok(&disperse(
-        &dir,
+        dir,
         &two,
         &[&args[..], &["--jobs", "2"]].concat(),
     ));
@@ -158,16 +228,16 @@ fn jobs_and_shards_do_not_change_the_results() {
     for m in [2, 3] {
         let mut shards = Vec::new();
         for i in (1..=m).rev() {
-            let s = tmp.path().join(format!("s{i}of{m}"));
+            let s = tmp.join(format!("s{i}of{m}"));
             let shard = format!("{i}/{m}");
             ok(&disperse(
-                &dir,
+                dir,
                 &s,
                 &[&args[..], &["--shard", &shard]].concat(),
             ));
             shards.push(s);
         }
-        let merged = tmp.path().join(format!("merged{m}"));
+        let merged = tmp.join(format!("merged{m}"));
         let o = host_sim()
             .arg("merge")
             .args(&shards)
@@ -180,15 +250,7 @@ fn jobs_and_shards_do_not_change_the_results() {
             assert_eq!(read(&one.join(f)), read(&merged.join(f)), "{m} shards: {f}");
         }
     }
-    // The draws really moved the figures, and the drawn parameters are in the table.
-    let csv = read(&one.join("runs.csv"));
-    assert_eq!(csv.lines().count(), 1 + 7);
-    assert!(csv.lines().next().unwrap().contains("link3.mass_kg"));
-    let s = json(&one.join("summary.json"));
-    assert_ne!(
-        s["statistics"]["base_disturbance_deg"]["max"],
-        s["nominal"]["base_disturbance_deg"]
-    );
+    one
 }
 
 /// The exported URDF of a sample reads back to exactly the drawn parameters.

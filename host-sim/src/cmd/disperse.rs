@@ -18,12 +18,16 @@
 //! dispersed robot instead.
 
 use crate::artifacts::{read_bundle, read_output_file};
+use crate::closed_loop;
 use crate::dispersion::{self, Draw, Figures, JointPath, Settings};
-use crate::dispersion_report::{self as report, DirSummary, Report, Row, Statistics};
+use crate::dispersion_report::{
+    self as report, ClosedLoopSummary, DirSummary, LoopStatistics, Report, Row, Statistics,
+};
 use crate::drive;
 use crate::error::{CliError, Context};
 use crate::goal::number;
 use crate::output::{FileKind, OutDir, write_file};
+use crate::sensors::Settings as SensorSettings;
 use crate::shards::{self, Manifest, Shard, parse_shard};
 use crate::taskfile::{DispersionKey, LoadedTask};
 use crate::urdf;
@@ -59,6 +63,11 @@ pub struct Args {
     /// Also write CDF figures of the figures (PNG and SVG).
     #[arg(long, conflicts_with = "export_sample")]
     plots: bool,
+    /// Fly each sample closed-loop: the core's executor (the task's `[closed_loop]`) on the
+    /// truth model's sensors (`[sensors]`), the same robots as the open-loop run of the same
+    /// seed. runs.csv gains the closed-loop columns, summary.json `mode` and `closed_loop`.
+    #[arg(long, conflicts_with = "export_sample")]
+    closed_loop: bool,
     /// Write sample K's dispersed robot as URDF to --out instead; K as in runs.csv's
     /// `sample` column, 0 for the first sample.
     #[arg(long, value_name = "K", value_parser = crate::args::parse_u64)]
@@ -91,6 +100,19 @@ impl Args {
             (read_bundle(&self.dir)?, self.dir.clone(), None)
         };
         let settings = self.settings(&lt)?;
+        if self.closed_loop && top.is_some() {
+            return Err(CliError::input(format!(
+                "--closed-loop: {} is a two-phase plan; the closed loop flies single-phase plans so far",
+                self.dir.display()
+            )));
+        }
+        if self.closed_loop && lt.file.sensors.latency_cycles != 1 {
+            return Err(CliError::input(format!(
+                "--closed-loop: {}: [sensors] latency_cycles = {}: the executor is built for one period of latency (spec §12)",
+                lt.path.display(),
+                lt.file.sensors.latency_cycles
+            )));
+        }
         if let Some(k) = self.export_sample {
             return with_dims!(
                 lt.chain.dof(),
@@ -132,6 +154,7 @@ impl Args {
             samples,
             shard: self.shard.unwrap_or(Shard::WHOLE),
             plots: self.plots,
+            closed_loop: self.closed_loop,
             out: &self.out,
             started,
         };
@@ -209,6 +232,7 @@ struct Run<'a> {
     samples: usize,
     shard: Shard,
     plots: bool,
+    closed_loop: bool,
     out: &'a Path,
     started: std::time::Instant,
 }
@@ -261,8 +285,31 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
     path.preshaped_from = run.top.map(LoadedTask::start::<N>).transpose()?;
     let lt = run.lt;
     let nominal_draw = Draw::nominal(&lt.chain);
-    let (nominal, _) = dispersion::fly::<N, K>(lt, &path, &nominal_draw)?;
-    let sensitivity = dispersion::sensitivity::<N, K>(lt, &path, &run.settings, &nominal)?;
+    let (mut nominal, _) = dispersion::fly::<N, K>(lt, &path, &nominal_draw)?;
+    // The closed loop: its settings, and the nominal robot flown with noise-free sensors.
+    let loop_setup = if run.closed_loop {
+        let config = lt.loop_config()?;
+        let sensors = lt.file.sensors;
+        closed_loop::cycle_steps(&path, config.period)?;
+        let quiet = SensorSettings {
+            star_tracker_arcsec: 0.0,
+            gyro_arw_deg_rt_h: 0.0,
+            gyro_bias_deg_h: 0.0,
+            dropout_probability: 0.0,
+            ..sensors
+        };
+        let flight =
+            closed_loop::fly::<N, K>(lt, &path, &nominal_draw, &quiet, &config, run.seed, 0, None)?;
+        nominal = flight.figures;
+        Some((config, sensors, flight))
+    } else {
+        None
+    };
+    let sensitivity = if run.closed_loop {
+        Vec::new()
+    } else {
+        dispersion::sensitivity::<N, K>(lt, &path, &run.settings, &nominal)?
+    };
     let range = run.shard.items(run.samples, "samples")?;
     let bar = drive::Progress::new("disperse", range.len() as u64, "samples");
     let rows: Vec<Result<Row, CliError>> = range
@@ -270,16 +317,29 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
         .into_par_iter()
         .map(|k| {
             let sample = k as u64;
+            let named = |e: CliError| CliError {
+                message: format!("sample {sample}: {}", e.message),
+                ..e
+            };
             let r = Draw::sample(&lt.chain, &run.settings, run.seed, sample).and_then(|draw| {
-                let (figures, _) =
-                    dispersion::fly::<N, K>(lt, &path, &draw).map_err(|e| CliError {
-                        message: format!("sample {sample}: {}", e.message),
-                        ..e
-                    })?;
+                let (figures, loop_figures) = match &loop_setup {
+                    Some((config, sensors, _)) => {
+                        let f = closed_loop::fly::<N, K>(
+                            lt, &path, &draw, sensors, config, run.seed, sample, None,
+                        )
+                        .map_err(named)?;
+                        (f.figures, Some(f.loop_figures))
+                    }
+                    None => (
+                        dispersion::fly::<N, K>(lt, &path, &draw).map_err(named)?.0,
+                        None,
+                    ),
+                };
                 Ok(Row {
                     sample,
                     figures,
                     draw,
+                    loop_figures,
                 })
             });
             bar.inc();
@@ -300,6 +360,23 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
         dir_summary: dir_summary(run.data)?,
         statistics: Statistics::of(&figures),
         sensitivity,
+        mode: if run.closed_loop {
+            "closed_loop"
+        } else {
+            "open_loop"
+        }
+        .into(),
+        closed_loop: loop_setup.map(|(config, sensors, flight)| {
+            let _ = config;
+            let loops: Vec<_> = rows.iter().filter_map(|r| r.loop_figures).collect();
+            ClosedLoopSummary {
+                sensors,
+                settings: lt.file.closed_loop,
+                nominal_noise_free: flight.figures,
+                nominal_loop: flight.loop_figures,
+                statistics: LoopStatistics::of(&loops),
+            }
+        }),
     };
     let out = OutDir::create(run.out)?;
     out.write("runs.csv", &report::runs_csv(&lt.chain, &rows)?)?;
@@ -308,16 +385,30 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
     for (_, v) in run.settings.entries() {
         bits.extend(v.to_bits().to_le_bytes());
     }
-    let id = shards::run_id(&[
+    let mode = if run.closed_loop {
+        // The closed loop's inputs: the sensors and the executor's settings.
+        format!(
+            "closed_loop {:?} {:?}",
+            lt.file.sensors, lt.file.closed_loop
+        )
+    } else {
+        String::new()
+    };
+    let (seed, samples) = (run.seed.to_le_bytes(), (run.samples as u64).to_le_bytes());
+    let mut parts: Vec<&[u8]> = vec![
         b"disperse",
         lt.text.as_bytes(),
         lt.urdf_text.as_bytes(),
         csv.as_bytes(),
-        &run.seed.to_le_bytes(),
-        &(run.samples as u64).to_le_bytes(),
+        &seed,
+        &samples,
         &bits,
         rep.dir.as_bytes(),
-    ]);
+    ];
+    if run.closed_loop {
+        parts.push(mode.as_bytes());
+    }
+    let id = shards::run_id(&parts);
     out.write_json(
         shards::MANIFEST,
         &Manifest {

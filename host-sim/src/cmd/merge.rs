@@ -92,6 +92,15 @@ impl Args {
                     .or_input(|| format!("{}/summary.json", first_dir.display()))?;
                 rep.rows = figures.len();
                 rep.statistics = Statistics::of(&figures);
+                if let Some(c) = rep.closed_loop.as_mut() {
+                    let loops = report::read_loop_figures("runs.csv", &runs)?.ok_or_else(|| {
+                        CliError::input(format!(
+                            "{}/runs.csv: a closed-loop run without the closed-loop columns",
+                            first_dir.display()
+                        ))
+                    })?;
+                    c.statistics = report::LoopStatistics::of(&loops);
+                }
                 let out = OutDir::create(&self.out)?;
                 out.write("runs.csv", runs.as_bytes())?;
                 report::write_report(&out, &rep, first.plots, &figures)?;

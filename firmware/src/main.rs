@@ -12,6 +12,10 @@
 //! (how it ended, phase 1's digest and the wheels' demand) and `QS` lines; `RLTASK05`
 //! re-times phase 2.
 //!
+//! After a single-phase plan the image also flies it closed-loop
+//! (`reactionless::closed_loop::fly_ideal`) on a robot whose link masses are 5 % off, with
+//! ideal sensors, and reports `LOOP`; each executor cycle runs between the cycle markers.
+//!
 //! Markers: the `rl_mark_*` functions do nothing but a distinct store; host-sim reads their
 //! addresses from the ELF and QEMU's instruction-counting plugin logs the instruction count
 //! each time one is entered.
@@ -66,6 +70,8 @@ marker!(rl_mark_retime_begin, 7);
 marker!(rl_mark_retime_end, 8);
 marker!(rl_mark_stream_begin, 9);
 marker!(rl_mark_stream_end, 10);
+marker!(rl_mark_cycle_begin, 11);
+marker!(rl_mark_cycle_end, 12);
 
 /// The statically allocated planner, handed out once.
 fn planner_slot() -> Option<&'static mut Planner<N, K, P>> {
@@ -78,6 +84,19 @@ fn planner_slot() -> Option<&'static mut Planner<N, K, P>> {
     // no interrupts touch it).
     #[allow(unsafe_code)]
     Some(unsafe { &mut *core::ptr::addr_of_mut!(PLANNER) })
+}
+
+/// The statically allocated truth task of the closed-loop flight, handed out once.
+fn truth_slot() -> Option<&'static mut Task<N, K>> {
+    static mut TRUTH: Task<N, K> = Task::IDLE;
+    static TAKEN: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+    if TAKEN.swap(true, core::sync::atomic::Ordering::Relaxed) {
+        return None;
+    }
+    // SAFETY: TAKEN makes this the only reference ever created to TRUTH (single core, no
+    // interrupts touch it).
+    #[allow(unsafe_code)]
+    Some(unsafe { &mut *core::ptr::addr_of_mut!(TRUTH) })
 }
 
 /// The statically allocated re-timing grid, handed out once.
@@ -154,6 +173,7 @@ fn run() -> Result<(), Error> {
     defmt::println!("PLAN frame_budget={=u32}", frame_budget);
     let (plan, frames) = plan(planner, frame_budget)?;
     measure(planner.task(), &plan, frames)?;
+    closed_loop(planner.task(), &plan.eta)?;
     match retime {
         Some(settings) => {
             let [first, ..] = &plan.eta;
@@ -348,6 +368,41 @@ fn measure(task: &Task<N, K>, plan: &Plan<N, K>, frames: u32) -> Result<(), Erro
             frames,
         },
     )
+}
+
+/// Flies the plan closed-loop on a robot whose link masses are 5 % off, with ideal
+/// sensors (`reactionless::closed_loop::fly_ideal`), each executor cycle between the cycle
+/// markers, and reports it (`LOOP`: cycles, the commands' digest, the largest base
+/// rotation's bits, the executor's size).
+#[inline(never)]
+fn closed_loop(task: &Task<N, K>, eta: &Eta<K>) -> Result<(), Error> {
+    use reactionless::closed_loop::{Executor, LoopConfig, Mode, fly_ideal};
+    let truth = truth_slot().ok_or(Error::NotInitialized)?;
+    load_truth(truth, task)?;
+    let f = fly_ideal(task, truth, eta, LoopConfig::DEFAULT, &mut |begin| {
+        if begin {
+            rl_mark_cycle_begin();
+        } else {
+            rl_mark_cycle_end();
+        }
+    })?;
+    defmt::println!(
+        "LOOP cycles={=u32} digest={=u64:#018x} max_angle={=u64:#018x} done={=bool} executor={=usize}",
+        f.cycles,
+        f.digest,
+        f.max_angle.to_bits(),
+        f.mode == Mode::Done,
+        core::mem::size_of::<Executor<N>>()
+    );
+    Ok(())
+}
+
+/// Builds the closed loop's truth task (the mistaken robot) into `slot`, in a frame of its
+/// own: the robot and the task are off the stack before the flight starts.
+#[inline(never)]
+fn load_truth(slot: &mut Task<N, K>, task: &Task<N, K>) -> Result<(), Error> {
+    let desc = reactionless::closed_loop::mistaken(task.robot().desc());
+    slot.init(&desc, *task.start(), *task.target(), *task.motion())
 }
 
 /// The counts a `RESULT` line reports.

@@ -61,6 +61,9 @@ pub const RETIME_INSTRUCTION_BUDGET: u64 = 48_000_000;
 /// frame of a 400 MHz Cortex-M7 at one instruction per cycle (measured: 14.6 M, a
 /// planner-model rollout with its bookkeeping).
 pub const TWO_PHASE_UNIT_BUDGET: u64 = 20_000_000;
+/// Instruction budget of one closed-loop control cycle (`Executor::step`): 5 % of a
+/// 400 MHz Cortex-M7 at 10 Hz (issue #31).
+pub const LOOP_CYCLE_BUDGET: u64 = 2_000_000;
 
 /// What `target` reports.
 #[derive(Debug, Serialize, schemars::JsonSchema)]
@@ -118,6 +121,13 @@ pub struct TargetJson {
     pub qemu_seconds: f64,
     /// The image.
     pub elf: String,
+    /// A single-phase plan flown closed-loop on the image (`closed_loop::fly_ideal` on a
+    /// robot whose link masses are 5 % off): its control cycles.
+    pub closed_loop_cycles: Option<u64>,
+    /// Most instructions of one closed-loop control cycle (`Executor::step`).
+    pub max_instructions_per_cycle: Option<u64>,
+    /// Mean instructions per closed-loop control cycle.
+    pub mean_instructions_per_cycle: Option<f64>,
     /// A two-phase task: how the search ended on the target (`converged`, `exhausted`,
     /// `beyond_reach`, `preshape_bounds`); `calls` are then search units, one per frame.
     pub two_phase_stop: Option<String>,
@@ -144,7 +154,7 @@ fn build(root: &Path) -> Result<PathBuf, CliError> {
 }
 
 /// Marker addresses (Thumb bit cleared), in the plugin's index order.
-const MARKERS: [&str; 10] = [
+const MARKERS: [&str; 12] = [
     "rl_mark_call_begin",
     "rl_mark_call_end",
     "rl_mark_rollout_begin",
@@ -155,6 +165,8 @@ const MARKERS: [&str; 10] = [
     "rl_mark_retime_end",
     "rl_mark_stream_begin",
     "rl_mark_stream_end",
+    "rl_mark_cycle_begin",
+    "rl_mark_cycle_end",
 ];
 
 struct Elf {
@@ -333,6 +345,10 @@ struct Instructions {
     retime: Option<u64>,
     /// Streaming every setpoint, if the image re-timed.
     stream: Option<u64>,
+    /// The closed loop's cycles: the most instructions of one, the mean, how many.
+    cycle_max: u64,
+    cycle_mean: f64,
+    cycles: u64,
 }
 
 /// Instruction figures from the plugin's log: per step, per rollout, max and mean per call.
@@ -341,6 +357,7 @@ fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
     let (mut step, mut rollout, mut max_call, mut sum, mut calls, mut total) =
         (0, 0, 0, 0u64, 0u64, 0);
     let (mut retime, mut stream) = (None, None);
+    let (mut cycle_max, mut cycle_sum, mut cycles) = (0, 0u64, 0u64);
     for l in log.lines() {
         let mut it = l.split_whitespace();
         let (Some(a), Some(b)) = (it.next(), it.next()) else {
@@ -373,7 +390,12 @@ fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
                 1 => rollout = d,
                 2 => step = d,
                 3 => retime = Some(d),
-                _ => stream = Some(d),
+                4 => stream = Some(d),
+                _ => {
+                    cycle_max = cycle_max.max(d);
+                    cycle_sum += d;
+                    cycles += 1;
+                }
             }
         }
     }
@@ -391,7 +413,53 @@ fn instruction_stats(log: &str) -> Result<Instructions, CliError> {
         total,
         retime,
         stream,
+        cycle_max,
+        cycle_mean: cycle_sum as f64 / cycles.max(1) as f64,
+        cycles,
     })
+}
+
+/// The image's `LOOP` line against the host's closed-loop flight of the same plan
+/// (`closed_loop::fly_ideal` on the mistaken robot): the first difference, if any.
+fn compare_closed_loop(
+    task: &reactionless::Task<FLIGHT_N, 4>,
+    segments: u32,
+    eta: &[f64],
+    lines: &[String],
+    on_target: &OnTarget,
+) -> Result<Option<String>, CliError> {
+    use reactionless::closed_loop::{LoopConfig, Mode, fly_ideal, mistaken};
+    let l = fields(lines, "LOOP")
+        .ok_or_else(|| CliError::failed("the image reported no closed-loop flight (LOOP)"))?;
+    let eta = reactionless::eta_from_flat::<4>(eta, segments)
+        .map_err(|e| CliError::internal(format!("the plan's eta: {e}")))?;
+    let robot = reactionless::Robot::new(&mistaken(task.robot().desc()))
+        .map_err(|e| CliError::internal(e.to_string()))?;
+    let truth = reactionless::Task::new(robot, *task.start(), *task.target(), *task.motion())
+        .map_err(|e| CliError::internal(e.to_string()))?;
+    let f = fly_ideal(task, &truth, &eta, LoopConfig::DEFAULT, &mut |_| {})
+        .map_err(|e| CliError::failed(format!("the host's closed-loop flight: {e}")))?;
+    let host = format!(
+        "cycles={} digest={:#018x} max_angle={:#018x} done={}",
+        f.cycles,
+        f.digest,
+        f.max_angle.to_bits(),
+        f.mode == Mode::Done
+    );
+    let target = format!(
+        "cycles={} digest={} max_angle={} done={}",
+        field(&l, "cycles")?,
+        field(&l, "digest")?,
+        field(&l, "max_angle")?,
+        field(&l, "done")?
+    );
+    if on_target.instructions.cycles != u64::from(f.cycles) {
+        return Err(CliError::failed(format!(
+            "the plugin saw {} closed-loop cycles, the host flew {}",
+            on_target.instructions.cycles, f.cycles
+        )));
+    }
+    Ok((host != target).then(|| format!("closed loop: host {host}, target {target}")))
 }
 
 /// The image's `RETIME` line: steps, the optimal duration's bits, setpoints and digest.
@@ -552,6 +620,15 @@ impl Args {
         )?;
         if let (None, Some(t)) = (&diff, &two_phase) {
             diff = compare_two_phase(t, &emulation.lines)?;
+        }
+        if diff.is_none() && two_phase.is_none() {
+            diff = compare_closed_loop(
+                &retime_task,
+                lt.file.motion.segments,
+                &on_host.eta,
+                &emulation.lines,
+                &on_target,
+            )?;
         }
         let within = within_budgets(&image.elf, &on_target, two_phase.is_some());
         let calls = on_target.instructions.calls;
@@ -785,6 +862,7 @@ fn compare(
 /// ([`TWO_PHASE_UNIT_BUDGET`]) each frame's.
 fn within_budgets(elf: &Elf, t: &OnTarget, two_phase: bool) -> bool {
     let within_frame = !two_phase || t.instructions.max_call <= TWO_PHASE_UNIT_BUDGET;
+    let within_cycle = t.instructions.cycle_max <= LOOP_CYCLE_BUDGET;
     let within_retime = t
         .instructions
         .retime
@@ -794,6 +872,7 @@ fn within_budgets(elf: &Elf, t: &OnTarget, two_phase: bool) -> bool {
         && elf.static_ram.saturating_sub(t.grid_bytes) <= STATIC_RAM_BUDGET
         && within_retime
         && within_frame
+        && within_cycle
 }
 
 /// What `target` reports (`--json`, or the text of [`print_report`]).
@@ -833,6 +912,9 @@ fn report(
         within_budgets: within,
         qemu_seconds: emulation.seconds,
         elf: image.path.display().to_string(),
+        closed_loop_cycles: (i.cycles > 0).then_some(i.cycles),
+        max_instructions_per_cycle: (i.cycles > 0).then_some(i.cycle_max),
+        mean_instructions_per_cycle: (i.cycles > 0).then_some(i.cycle_mean),
         two_phase_stop: None,
     }
 }
@@ -870,6 +952,15 @@ fn print_report(r: &TargetJson, setpoints: Option<u32>) {
     ) {
         println!(
             "re-timing                  {i} instructions (budget {RETIME_INSTRUCTION_BUDGET}), streaming {s} for {n} setpoints; {d:.2} s"
+        );
+    }
+    if let (Some(n), Some(max), Some(mean)) = (
+        r.closed_loop_cycles,
+        r.max_instructions_per_cycle,
+        r.mean_instructions_per_cycle,
+    ) {
+        println!(
+            "closed-loop cycle          {max} instructions max (budget {LOOP_CYCLE_BUDGET}), {mean:.0} mean over {n} cycles"
         );
     }
     println!("flash                      {} bytes", r.flash_bytes);

@@ -66,6 +66,66 @@ pub struct Trace {
     pub theta_estimate: Vec<[f64; 3]>,
     /// The command decided this cycle (rad/s).
     pub command: Vec<Vec<f64>>,
+    /// The flown joint path, every sample the truth model integrated: times (s).
+    pub flown_t: Vec<f64>,
+    /// The flown joint path: configurations (rad).
+    pub flown_q: Vec<Vec<f64>>,
+    /// The joint rates flown into each sample (rad/s; zero at the first).
+    pub flown_qd: Vec<Vec<f64>>,
+    /// The truth model's base attitude at each sample (`[w, x, y, z]`).
+    pub flown_base: Vec<[f64; 4]>,
+}
+
+impl Trace {
+    /// The per-cycle trace as `cycles.csv` text: `t` (s), the true base rotation vector and
+    /// the executor's estimate of it (deg, base frame), their magnitudes (deg), and the
+    /// command decided that cycle per joint (deg/s).
+    pub fn cycles_csv(&self) -> String {
+        let n = self.command.first().map_or(0, Vec::len);
+        let mut out = String::from(
+            "t_s,theta_x_deg,theta_y_deg,theta_z_deg,estimate_x_deg,estimate_y_deg,estimate_z_deg,theta_deg,estimate_deg",
+        );
+        for j in 1..=n {
+            out.push_str(&format!(",command{j}_deg_s"));
+        }
+        out.push('\n');
+        let mut b = ryu::Buffer::new();
+        let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        for (k, t) in self.t.iter().enumerate() {
+            let (th, es) = (self.theta[k], self.theta_estimate[k]);
+            let mut row = vec![*t];
+            row.extend(th.iter().map(|v| v.to_degrees()));
+            row.extend(es.iter().map(|v| v.to_degrees()));
+            row.push(norm(&th).to_degrees());
+            row.push(norm(&es).to_degrees());
+            row.extend(self.command[k].iter().map(|v| v.to_degrees()));
+            let cells: Vec<String> = row.iter().map(|v| b.format(*v).to_string()).collect();
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        out
+    }
+
+    /// The flown joint path as `trajectory.csv` text (`t,q1..qN`, s and rad, each number
+    /// in its shortest round-trip form): what `scripts/disperse-check.py` re-flies.
+    pub fn flown_csv(&self) -> String {
+        let n = self.flown_q.first().map_or(0, Vec::len);
+        let mut out = String::from("t");
+        for j in 1..=n {
+            out.push_str(&format!(",q{j}"));
+        }
+        out.push('\n');
+        let mut b = ryu::Buffer::new();
+        for (t, q) in self.flown_t.iter().zip(&self.flown_q) {
+            out.push_str(b.format(*t));
+            for v in q {
+                out.push(',');
+                out.push_str(b.format(*v));
+            }
+            out.push('\n');
+        }
+        out
+    }
 }
 
 /// Flies `path` (uniform `dt`, `T_c` a whole multiple of it) closed-loop on the truth model
@@ -108,6 +168,12 @@ pub fn fly<const N: usize, const K: usize>(
     let mut q = q0;
     let mut t = 0.0;
     truth.push(&q, t);
+    if let Some(tr) = trace.as_deref_mut() {
+        tr.flown_t.push(t);
+        tr.flown_q.push(q.to_vec());
+        tr.flown_qd.push(vec![0.0; N]);
+        tr.flown_base.push(truth.attitude());
+    }
     let mut prev = truth.attitude();
     let mut figures = LoopFigures {
         extra_time_s: 0.0,
@@ -183,6 +249,12 @@ pub fn fly<const N: usize, const K: usize>(
                 }
                 t += dt;
                 truth.push(&q, t);
+                if let Some(tr) = trace.as_deref_mut() {
+                    tr.flown_t.push(t);
+                    tr.flown_q.push(q.to_vec());
+                    tr.flown_qd.push(rate.to_vec());
+                    tr.flown_base.push(truth.attitude());
+                }
             }
         }
         rate = cmd.rate;

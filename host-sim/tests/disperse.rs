@@ -202,6 +202,48 @@ fn closed_loop_runs_fly_the_same_robots_over_jobs_and_shards() {
     assert!(read(&closed.join("summary.md")).contains("Flown closed-loop"));
 }
 
+/// `--closed-loop --export-sample K --out DIR` writes the sample's dispersed robot, its
+/// flown joint path at the plan's step (t_f plus the 3 s extension), the task and the
+/// per-cycle trace, and with `--plots` the flight's figures; `--plots` with an open-loop
+/// export is refused.
+/// Verifies RL-SIM-LOOP-003.
+#[test]
+fn a_closed_loop_sample_exports_its_flight() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = rollout(tmp.path());
+    let out = tmp.path().join("s2");
+    ok(&disperse(
+        &dir,
+        &out,
+        &[
+            &DISPERSED[..],
+            &["--closed-loop", "--export-sample", "2", "--plots"],
+        ]
+        .concat(),
+    ));
+    for f in ["robot.urdf", "task.toml", "joints.png", "base_attitude.svg"] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    let path = read(&out.join("trajectory.csv"));
+    assert!(path.starts_with("t,q1,q2,q3,q4,q5,q6,q7\n"));
+    assert_eq!(path.lines().count(), 1 + 3301);
+    assert!(
+        path.lines().last().unwrap().starts_with("33.0"),
+        "{:?}",
+        path.lines().last()
+    );
+    let cycles = read(&out.join("cycles.csv"));
+    assert!(cycles.starts_with("t_s,theta_x_deg"));
+    assert_eq!(cycles.lines().count(), 1 + 330);
+    let o = disperse(
+        &dir,
+        &tmp.path().join("bad.urdf"),
+        &[&DISPERSED[..], &["--export-sample", "2", "--plots"]].concat(),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--closed-loop"));
+}
+
 /// Runs `disperse` of 7 samples with `extra` at `--jobs` 1 and 2 and in 2 and 3 shards
 /// merged, asserts every file is the same, and returns the first run's directory.
 fn same_over_jobs_and_shards(tmp: &Path, dir: &Path, extra: &[&str]) -> PathBuf {

@@ -60,13 +60,18 @@ pub struct Args {
     /// array index); `host-sim merge` puts them back together.
     #[arg(long, value_parser = parse_shard, value_name = "I/M", conflicts_with = "export_sample")]
     shard: Option<Shard>,
-    /// Also write CDF figures of the figures (PNG and SVG).
-    #[arg(long, conflicts_with = "export_sample")]
+    /// Also write CDF figures of the figures (PNG and SVG); with --closed-loop
+    /// --export-sample, the flight's figures (joints, rates, end-effector path, base
+    /// attitude).
+    #[arg(long)]
     plots: bool,
     /// Fly each sample closed-loop: the core's executor (the task's `[closed_loop]`) on the
     /// truth model's sensors (`[sensors]`), the same robots as the open-loop run of the same
     /// seed. runs.csv gains the closed-loop columns, summary.json `mode` and `closed_loop`.
-    #[arg(long, conflicts_with = "export_sample")]
+    /// With --export-sample K, --out is a directory: the sample's robot.urdf, its flown
+    /// joint path (trajectory.csv) and task.toml, for scripts/disperse-check.py, and
+    /// cycles.csv (per cycle: the base rotation and its estimate, the commands).
+    #[arg(long)]
     closed_loop: bool,
     /// Write sample K's dispersed robot as URDF to --out instead; K as in runs.csv's
     /// `sample` column, 0 for the first sample.
@@ -114,6 +119,24 @@ impl Args {
             )));
         }
         if let Some(k) = self.export_sample {
+            if self.plots && !self.closed_loop {
+                return Err(CliError::input(
+                    "--plots with --export-sample needs --closed-loop (an exported robot has no figures)",
+                ));
+            }
+            if self.closed_loop {
+                return with_dims!(
+                    lt.chain.dof(),
+                    export_flight,
+                    &lt,
+                    &data,
+                    &settings,
+                    self.seed,
+                    k,
+                    self.plots,
+                    &self.out
+                );
+            }
             return with_dims!(
                 lt.chain.dof(),
                 export,
@@ -266,6 +289,108 @@ fn export<const N: usize, const K: usize>(
         out.display(),
         w
     );
+    Ok(())
+}
+
+/// Sample `sample`'s closed-loop flight as a directory: the dispersed robot (robot.urdf),
+/// the flown joint path (trajectory.csv: `t,q1..qN`) and the task (task.toml), which
+/// `scripts/disperse-check.py --dir OUT --urdf OUT/robot.urdf --runs RUNS --sample K`
+/// re-flies with Pinocchio.
+#[allow(clippy::too_many_arguments)]
+fn export_flight<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    data: &Path,
+    settings: &Settings,
+    seed: u64,
+    sample: u64,
+    plots: bool,
+    out: &Path,
+) -> Result<(), CliError> {
+    let (path, _) = read_path::<N>(data)?;
+    let draw = Draw::sample(&lt.chain, settings, seed, sample)?;
+    let mut dispersed = lt.clone();
+    dispersed.chain = draw.apply(&lt.chain);
+    dispersed.task::<N, K>()?;
+    let config = lt.loop_config()?;
+    let mut trace = closed_loop::Trace::default();
+    let flight = closed_loop::fly::<N, K>(
+        lt,
+        &path,
+        &draw,
+        &lt.file.sensors,
+        &config,
+        seed,
+        sample,
+        Some(&mut trace),
+    )?;
+    let dir = OutDir::create(out)?;
+    dir.write("robot.urdf", urdf::write(&dispersed.chain).as_bytes())?;
+    dir.write("trajectory.csv", trace.flown_csv().as_bytes())?;
+    dir.write("task.toml", lt.text.as_bytes())?;
+    dir.write("cycles.csv", trace.cycles_csv().as_bytes())?;
+    if plots {
+        flight_figures::<N, K>(&dispersed, &trace, seed, sample, &dir)?;
+    }
+    let written = dir.commit()?;
+    eprintln!(
+        "disperse: sample {sample} of seed {seed} flown closed-loop -> {} (base disturbance {} deg, {} samples)",
+        written.display(),
+        number(flight.figures.base_disturbance_deg),
+        trace.flown_t.len()
+    );
+    Ok(())
+}
+
+/// The closed-loop flight's figures (crate::plots' joints, joint rates, end-effector path
+/// and base attitude), on the dispersed robot it flew.
+fn flight_figures<const N: usize, const K: usize>(
+    dispersed: &LoadedTask,
+    trace: &closed_loop::Trace,
+    seed: u64,
+    sample: u64,
+    dir: &OutDir,
+) -> Result<(), CliError> {
+    let task = dispersed.task::<N, K>()?;
+    let robot = task.robot();
+    let com0 = task.com0();
+    let ee = trace
+        .flown_q
+        .iter()
+        .zip(&trace.flown_base)
+        .map(|(q, b)| {
+            let q: [f64; N] = core::array::from_fn(|i| q[i]);
+            reactionless::Frames::new(robot, &q)
+                .end_pose(&com0, *b)
+                .position
+        })
+        .collect();
+    let data = crate::plots::PlotData {
+        joint_names: dispersed.chain.joint_names.clone(),
+        t: trace.flown_t.clone(),
+        q: trace.flown_q.clone(),
+        qd: trace.flown_qd.clone(),
+        lower: robot.lower().to_vec(),
+        upper: robot.upper().to_vec(),
+        qd_limit: dispersed.chain.joints.iter().map(|j| j.velocity).collect(),
+        ee,
+        target: task.target().position,
+        base_angle_deg: trace
+            .flown_base
+            .iter()
+            .map(|b| reactionless::geometry::quat_angle(*b).to_degrees())
+            .collect(),
+        base_wxyz: trace.flown_base.clone(),
+        best_f_history: None,
+        tolerance: dispersed.file.planner.tolerance,
+        first_hit: None,
+        base_limit_deg: dispersed.max_base_disturbance_deg(),
+        stamp: format!(
+            "{} · closed loop · sample {sample} of seed {seed} · {}",
+            dispersed.path.display(),
+            crate::version::Build::current().stamp()
+        ),
+    };
+    crate::plots::write_plots(&dir.path(""), &data)?;
     Ok(())
 }
 

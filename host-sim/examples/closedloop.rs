@@ -50,7 +50,7 @@ use host_sim::sensors::{Sensors, Settings as SensorSettings};
 use host_sim::taskfile::LoadedTask;
 use host_sim::with_dims;
 use reactionless::geometry::{Vec3, normalized, quat_exp, quat_log, quat_mul};
-use reactionless::{Frames, Momentum, Robot, TRUTH_SUBSTEPS, TruthState};
+use reactionless::{Frames, Momentum, Robot};
 use std::path::PathBuf;
 
 struct Opts {
@@ -521,13 +521,7 @@ fn fly<const N: usize, const K: usize>(
     let mut dispersed = lt.clone();
     dispersed.chain = draw.apply(&lt.chain);
     let task: reactionless::Task<N, K> = dispersed.task::<N, K>().unwrap();
-    let mut state = TruthState::<N>::new(TRUTH_SUBSTEPS);
-    if draw.base_rate != [0.0; 3] {
-        let hb = Momentum::new(task.robot(), &Frames::new(task.robot(), task.start())).hb;
-        let w = draw.base_rate;
-        let l = hb.mul_vec(&nalgebra::Vector3::new(w[0], w[1], w[2]));
-        state = state.with_momentum([l.x, l.y, l.z]);
-    }
+    let mut state = draw.truth_state(&task);
     let qmax: [f64; N] = core::array::from_fn(|i| task.robot().desc().joints[i].velocity);
     // The oracle: the drift the plan makes on this robot, known in advance.
     let feed = if law == Law::Oracle {

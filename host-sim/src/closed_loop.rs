@@ -18,7 +18,7 @@ use crate::sensors::{Sensors, Settings as SensorSettings};
 use crate::taskfile::LoadedTask;
 use reactionless::closed_loop::{Command, Executor, Fault, LoopConfig, Measurement, Mode};
 use reactionless::geometry::quat_log;
-use reactionless::{Frames, Momentum, TRUTH_SUBSTEPS, Task, TruthModel, TruthState};
+use reactionless::{Task, TruthModel};
 use serde::{Deserialize, Serialize};
 
 pub use crate::taskfile::LoopSection;
@@ -149,14 +149,7 @@ pub fn fly<const N: usize, const K: usize>(
     let plan_cycles = (path.q.len() - 1) / per;
     let tf = path.t[path.t.len() - 1] - path.t[0];
     let plan_at = |j: usize| path.q[(j * per).min(path.q.len() - 1)];
-    let mut state = TruthState::<N>::new(TRUTH_SUBSTEPS);
-    if draw.base_rate != [0.0; 3] {
-        let hb = Momentum::new(task.robot(), &Frames::new(task.robot(), task.start())).hb;
-        let w = draw.base_rate;
-        let l = hb.mul_vec(&nalgebra::Vector3::new(w[0], w[1], w[2]));
-        state = state.with_momentum([l.x, l.y, l.z]);
-    }
-    let mut truth = TruthModel::from_state(&task, state);
+    let mut truth = TruthModel::from_state(&task, draw.truth_state(&task));
     let mut sensors = Sensors::new(sensors, seed, sample);
     let q0 = path.q[0];
     let (mut exec, mut rate) = Executor::new(*config, nominal.robot(), &q0, tf, &plan_at(1))

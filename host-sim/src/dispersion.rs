@@ -185,6 +185,20 @@ fn tilt(a: [f64; 3], z1: f64, z2: f64, sigma_rad: f64) -> [f64; 3] {
 }
 
 impl Draw {
+    /// The truth model's state at the start of a flight of `task` (the dispersed robot):
+    /// at rest, or with the angular momentum of the drawn initial base rate,
+    /// `L = H~b(q₀) ω(0)` (spec §11).
+    pub fn truth_state<const N: usize, const K: usize>(&self, task: &Task<N, K>) -> TruthState<N> {
+        let state = TruthState::<N>::new(TRUTH_SUBSTEPS);
+        if self.base_rate == [0.0; 3] {
+            return state;
+        }
+        let hb = Momentum::new(task.robot(), &Frames::new(task.robot(), task.start())).hb;
+        let w = self.base_rate;
+        let l = hb.mul_vec(&nalgebra::Vector3::new(w[0], w[1], w[2]));
+        state.with_momentum([l.x, l.y, l.z])
+    }
+
     /// The nominal parameters of `chain` (every σ = 0).
     pub fn nominal(chain: &Chain) -> Self {
         Self {
@@ -377,15 +391,7 @@ pub fn fly<const N: usize, const K: usize>(
     let mut dispersed = lt.clone();
     dispersed.chain = draw.apply(&lt.chain);
     let task: Task<N, K> = dispersed.task::<N, K>()?;
-    let mut state = TruthState::<N>::new(TRUTH_SUBSTEPS);
-    if draw.base_rate != [0.0; 3] {
-        let q0 = *task.start();
-        let hb = Momentum::new(task.robot(), &Frames::new(task.robot(), &q0)).hb;
-        let w = draw.base_rate;
-        let l = hb.mul_vec(&nalgebra::Vector3::new(w[0], w[1], w[2]));
-        state = state.with_momentum([l.x, l.y, l.z]);
-    }
-    let mut truth = TruthModel::from_state(&task, state);
+    let mut truth = TruthModel::from_state(&task, draw.truth_state(&task));
     for (t, q) in path.t.iter().zip(&path.q) {
         truth.push(q, *t);
     }

@@ -351,7 +351,8 @@ pub enum Error {
     /// A re-timing margin factor above 1 (it must lie in (0, 1]).
     MarginAboveOne,
     /// A closed-loop setting out of its range ([`crate::closed_loop::LoopConfig`]): a
-    /// filter gain above 1, or a control period that does not divide `t_f`.
+    /// filter or drift gain above 1, a gain whose product with the control period is 1
+    /// or more, or a control period that does not divide `t_f`.
     LoopSetting(Param),
     /// The `t_f/dt` steps do not split into `segments` equal segments.
     SegmentsUneven {
@@ -534,6 +535,10 @@ impl fmt::Display for Error {
                 f.write_str("attitude filter gain must lie in (0, 1]")
             }
             Error::LoopSetting(Param::DriftGain) => f.write_str("drift gain must lie in [0, 1]"),
+            Error::LoopSetting(p @ (Param::BaseGain | Param::EeGain)) => write!(
+                f,
+                "{p} times the control period must stay below 1 (the loop oscillates beyond)"
+            ),
             Error::LoopSetting(Param::ControlPeriod) => {
                 f.write_str("control period must divide t_f into a whole number of cycles")
             }

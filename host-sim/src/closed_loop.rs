@@ -146,7 +146,6 @@ pub fn fly<const N: usize, const K: usize>(
     dispersed.chain = draw.apply(&lt.chain);
     let task: Task<N, K> = dispersed.task::<N, K>()?;
     let (per, dt) = cycle_steps(path, config.period)?;
-    let plan_cycles = (path.q.len() - 1) / per;
     let tf = path.t[path.t.len() - 1] - path.t[0];
     let plan_at = |j: usize| path.q[(j * per).min(path.q.len() - 1)];
     let mut truth = TruthModel::from_state(&task, draw.truth_state(&task));
@@ -234,7 +233,7 @@ pub fn fly<const N: usize, const K: usize>(
         }
         note(&cmd.rate, &mut figures);
         // Fly cycle k at the rate decided one cycle ago.
-        if rate.iter().any(|v| *v != 0.0) || k < plan_cycles {
+        {
             for _ in 0..per {
                 for (qi, v) in q.iter_mut().zip(&rate) {
                     *qi += v * dt;

@@ -190,6 +190,14 @@ impl LoopConfig {
         if self.drift_gain > 1.0 {
             return Err(Error::LoopSetting(Param::DriftGain));
         }
+        // With the one-cycle prediction an error decays as (1 − k T_c) per cycle: it
+        // oscillates from k T_c > 1 and diverges from 2.
+        if self.base_gain * self.period >= 1.0 {
+            return Err(Error::LoopSetting(Param::BaseGain));
+        }
+        if self.ee_gain * self.period >= 1.0 {
+            return Err(Error::LoopSetting(Param::EeGain));
+        }
         if self.ee_gain > 0.0 && self.ee_damping <= 0.0 {
             // J P has rank N − 3 < 6 at most: without damping its system is singular.
             return Err(Error::NotPositive(Param::EeDamping));
@@ -238,14 +246,12 @@ pub enum Fault {
     },
     /// A sensor gave nothing for more than [`LoopConfig::max_missing_cycles`] cycles.
     Stale(Sensor),
-    /// Joint `joint` (1-based) is not where the commands took it (a joint not following),
-    /// or its reading has not changed while the commands moved it by more than the
-    /// tolerance (a frozen encoder).
+    /// Joint `joint` (1-based) is not where the commands since `t = 0` took it (a joint not
+    /// following, a frozen encoder).
     Tracking {
         /// The joint (1-based).
         joint: u8,
-        /// Reading minus expectation (rad); for a frozen reading, minus the travel
-        /// commanded since it last changed.
+        /// Reading minus the start plus every command times its cycle (rad).
         error: f64,
     },
     /// The base attitude estimate (rad) is beyond [`LoopConfig::base_limit`].
@@ -305,9 +311,8 @@ pub struct Executor<const N: usize> {
     applied: [f64; N],
     /// Joint estimate at `t_k` before the reading: the last reading plus the commands.
     joints: [f64; N],
-    /// The last joint reading, and the travel commanded since it last changed (rad).
-    last_reading: [f64; N],
-    unchanged: [f64; N],
+    /// Where every command since `t = 0` took the joints (rad), for the tracking check.
+    reckoned: [f64; N],
     /// Filtered base attitude in the star tracker's frame.
     attitude: [f64; 4],
     /// The gyro's (or the model's) rotation since `t = 0`.
@@ -362,8 +367,14 @@ impl<const N: usize> Executor<N> {
             let v = desc.joints.get(i).map_or(0.0, |j| j.velocity);
             if v > 0.0 { v } else { robot.qd_max() }
         });
-        let first: [f64; N] =
-            core::array::from_fn(|i| (get(plan_first, i) - get(q0, i)) / config.period);
+        // The plan's chord over cycle 0, from rest: within one cycle's acceleration (which
+        // the last cycle can stop) and the rate limit.
+        let dv = config.qdd_max * config.period;
+        let first: [f64; N] = core::array::from_fn(|i| {
+            let v = (get(plan_first, i) - get(q0, i)) / config.period;
+            let bound = dv.min(get(&qd_limit, i));
+            v.max(-bound).min(bound)
+        });
         let exec = Self {
             config,
             // In range by the check above.
@@ -376,8 +387,7 @@ impl<const N: usize> Executor<N> {
             applying: first,
             applied: [0.0; N],
             joints: *q0,
-            last_reading: [f64::NAN; N],
-            unchanged: [0.0; N],
+            reckoned: *q0,
             attitude: IDENTITY_WXYZ,
             gyro_rotation: IDENTITY_WXYZ,
             initial: IDENTITY_WXYZ,
@@ -503,7 +513,8 @@ impl<const N: usize> Executor<N> {
                 });
             }
         }
-        if let Some(w) = &m.gyro {
+        // The gyro's rate over the last cycle means nothing at cycle 0: not checked there.
+        if let Some(w) = m.gyro.as_ref().filter(|_| k > 0) {
             if w.iter().any(|v| !v.is_finite()) {
                 return Some(Fault::NotFinite(Sensor::Gyro));
             }
@@ -528,27 +539,15 @@ impl<const N: usize> Executor<N> {
                     });
                 }
             }
-            // The joints at t_k: the estimate at t_{k−1} plus the command of cycle k − 1; and a
-            // reading that has not changed while the commands moved the joint on (frozen).
-            let items = q
-                .iter()
-                .zip(self.joints.iter())
-                .zip(self.last_reading.iter_mut())
-                .zip(self.unchanged.iter_mut())
-                .zip(self.applied.iter());
-            for (i, ((((v, e), last), unchanged), u)) in items.enumerate() {
+            // The joints where every command since t = 0 took them: a joint that does not
+            // follow (slips, lags) or a frozen reading drifts away from it, cycle after
+            // cycle (the sum telescopes, so the encoders' rounding does not add up).
+            for (i, (v, e)) in q.iter().zip(self.reckoned.iter()).enumerate() {
                 let error = v - e;
-                if v.to_bits() == last.to_bits() {
-                    *unchanged += libm::fabs(u * cfg.period);
-                } else {
-                    *unchanged = 0.0;
-                }
-                *last = *v;
-                let frozen = *unchanged > cfg.tracking_tolerance;
-                if libm::fabs(error) > cfg.tracking_tolerance || frozen {
+                if libm::fabs(error) > cfg.tracking_tolerance {
                     return Some(Fault::Tracking {
                         joint: joint_label(i),
-                        error: if frozen { -*unchanged } else { error },
+                        error,
                     });
                 }
             }
@@ -625,7 +624,7 @@ impl<const N: usize> Executor<N> {
         let theta = quat_log(quat_mul(conj(self.initial), self.attitude));
         let angle = theta.norm();
         if !angle.is_finite() {
-            return Err(Fault::NotFinite(Sensor::StarTracker));
+            return Err(Fault::Model(Error::NonFiniteState { step: k }));
         }
         if angle > self.config.base_limit {
             return Err(Fault::BaseError(angle));
@@ -743,9 +742,14 @@ impl<const N: usize> Executor<N> {
             let mut v = if lo <= hi {
                 want.max(lo).min(hi)
             } else {
-                // A joint already beyond a limit: as close to the soft bounds as the rate
-                // limit allows.
-                want.max(soft_lo).min(soft_hi).max(-vmax).min(vmax)
+                // A joint already beyond a limit: back toward it, as fast as stopping by
+                // the last cycle and the rate limit allow.
+                want.max(soft_lo)
+                    .min(soft_hi)
+                    .max(-stop)
+                    .min(stop)
+                    .max(-vmax)
+                    .min(vmax)
             };
             // The acceleration limit wins; `prev` and `v` both lie within the rate limit,
             // so whatever lies between them does too.
@@ -763,11 +767,7 @@ impl<const N: usize> Executor<N> {
 
     /// The safe state: each joint's rate toward zero by at most `qdd_max T_c`.
     fn stop(&mut self, fault: Fault, event: Option<Fault>) -> Command<N> {
-        let dv = self.config.qdd_max * self.config.period;
-        let rate: [f64; N] = core::array::from_fn(|i| {
-            let v = get(&self.applying, i);
-            v - v.max(-dv).min(dv)
-        });
+        let rate = self.toward_rest();
         self.advance(rate);
         self.mode = if rate.iter().all(|v| *v == 0.0) {
             Mode::Stopped(fault)
@@ -782,21 +782,36 @@ impl<const N: usize> Executor<N> {
         }
     }
 
-    /// The end of the flight: zero from now on.
+    /// The end of the flight: each joint's rate toward zero by at most `qdd_max T_c` (the
+    /// last commands are already within it, unless a joint limit forced them), then zero
+    /// from then on ([`Mode::Done`]).
     fn finish(&mut self) -> Command<N> {
-        self.advance([0.0; N]);
-        self.mode = Mode::Done;
+        let rate = self.toward_rest();
+        self.advance(rate);
+        if rate.iter().all(|v| *v == 0.0) {
+            self.mode = Mode::Done;
+        }
         Command {
-            rate: [0.0; N],
-            mode: Mode::Done,
+            rate,
+            mode: self.mode,
             event: None,
             limited: false,
         }
     }
 
+    /// The pending command brought toward zero by at most `qdd_max T_c` per joint.
+    fn toward_rest(&self) -> [f64; N] {
+        let dv = self.config.qdd_max * self.config.period;
+        core::array::from_fn(|i| {
+            let v = get(&self.applying, i);
+            v - v.max(-dv).min(dv)
+        })
+    }
+
     /// Shifts the commands: `rate` is applied through the next cycle.
     fn advance(&mut self, rate: [f64; N]) {
         self.joints = add_scaled(&self.joints, &self.applying, self.config.period);
+        self.reckoned = add_scaled(&self.reckoned, &self.applying, self.config.period);
         self.applied = self.applying;
         self.applying = rate;
     }
@@ -1047,27 +1062,30 @@ mod tests {
         (out, truth.max_angle(), q, truth)
     }
 
-    /// Every command within the rate limits, every change within `qdd_max T_c`.
+    /// Every command within the rate limits, every change within `qdd_max T_c`: from rest
+    /// to the first command (cycle 0's, from [`Executor::new`]), then from each to the next.
     fn within_limits(task: &Task<7, 4>, config: &LoopConfig, first: [f64; 7], cmds: &[Command<7>]) {
         let lim = limits(task);
         let dv = config.qdd_max * config.period * (1.0 + 1e-12);
-        let mut prev = first;
-        for (k, c) in cmds.iter().enumerate() {
+        let mut prev = [0.0; 7];
+        let all = core::iter::once(first).chain(cmds.iter().map(|c| c.rate));
+        for (k, rate) in all.enumerate() {
             for i in 0..7 {
                 assert!(
-                    c.rate[i].abs() <= lim[i],
-                    "cycle {k} joint {i}: {}",
-                    c.rate[i]
+                    rate[i].abs() <= lim[i],
+                    "command {k} joint {i}: {}",
+                    rate[i]
                 );
                 assert!(
-                    (c.rate[i] - prev[i]).abs() <= dv + 1e-15,
-                    "cycle {k} joint {i}: {} after {}",
-                    c.rate[i],
+                    (rate[i] - prev[i]).abs() <= dv + 1e-15,
+                    "command {k} joint {i}: {} after {}",
+                    rate[i],
                     prev[i]
                 );
             }
-            prev = c.rate;
+            prev = rate;
         }
+        assert_eq!(prev, [0.0; 7], "the last command is not at rest");
     }
 
     /// On the planner's own robot with perfect sensors the loop does no harm: the base
@@ -1086,6 +1104,10 @@ mod tests {
         assert_eq!(cmds.len(), 330);
         assert_eq!(cmds.last().unwrap().mode, Mode::Done);
         assert!(cmds.iter().all(|c| c.event.is_none()));
+        let plan = plan_at_cycles(&task);
+        let cfg = LoopConfig::DEFAULT;
+        let (_, first) = Executor::new(cfg, task.robot(), task.start(), 30.0, &plan[1]).unwrap();
+        within_limits(&task, &cfg, first, &cmds);
     }
 
     /// Each fault ends in the safe state, reported once with its reason, and the arm comes
@@ -1179,8 +1201,9 @@ mod tests {
             let last = cmds.last().unwrap();
             assert_eq!(last.mode, Mode::Stopped(fault), "{name}");
             assert_eq!(last.rate, [0.0; 7], "{name}");
-            let q0 = plan_at_cycles(&task);
-            let first: [f64; 7] = core::array::from_fn(|i| (q0[1][i] - q0[0][i]) / cfg.period);
+            let plan = plan_at_cycles(&task);
+            let (_, first) =
+                Executor::new(cfg, task.robot(), task.start(), 30.0, &plan[1]).unwrap();
             within_limits(&task, &cfg, first, &cmds);
             // At rest within the time the largest rate needs at qdd_max.
             let lim = limits(&task).iter().fold(0.0f64, |m, v| m.max(*v));
@@ -1217,7 +1240,8 @@ mod tests {
 
     /// Whatever the measurements (random joints across their range and beyond, random
     /// attitudes and rates, random dropouts, NaNs), every command stays within the rate
-    /// limits and changes by at most `qdd_max T_c` per cycle, and nothing panics.
+    /// limits and changes by at most `qdd_max T_c` per cycle, the arm ends at rest, and
+    /// nothing panics.
     /// Verifies RL-LOOP-002.
     #[test]
     fn commands_stay_within_limits_under_random_measurements() {
@@ -1228,7 +1252,7 @@ mod tests {
             let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
             let mut u = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
             let cfg = LoopConfig {
-                base_gain: 20.0 * u(),
+                base_gain: 9.9 * u(),
                 ee_gain: 5.0 * u(),
                 drift_gain: u(),
                 max_missing_cycles: 1_000,
@@ -1240,7 +1264,7 @@ mod tests {
             let q0 = *task.start();
             let (mut exec, first) = Executor::new(cfg, robot, &q0, 30.0, &plan[1]).unwrap();
             let mut cmds = Vec::new();
-            for k in 0..340usize {
+            for k in 0..400usize {
                 let mut joints: [f64; 7] = core::array::from_fn(|i| {
                     let (lo, hi) = (robot.lower()[i], robot.upper()[i]);
                     lo - 0.04 + (hi - lo + 0.08) * u()

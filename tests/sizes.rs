@@ -107,7 +107,7 @@ fn documented_closed_loop_sizes() {
         sizes,
         [
             ("LoopConfig", 112),
-            ("Executor<7>", 704),
+            ("Executor<7>", 648),
             ("Measurement<7>", 136),
             ("Command<7>", 120),
         ]

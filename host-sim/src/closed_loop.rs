@@ -153,10 +153,7 @@ pub fn fly<const N: usize, const K: usize>(
     let q0 = path.q[0];
     let (mut exec, mut rate) = Executor::new(*config, nominal.robot(), &q0, tf, &plan_at(1))
         .map_err(|e| CliError::input(format!("closed loop: {e}")))?;
-    let limits: [f64; N] = core::array::from_fn(|i| {
-        let v = nominal.robot().desc().joints[i].velocity;
-        if v > 0.0 { v } else { nominal.robot().qd_max() }
-    });
+    let limits = *exec.rate_limits();
     let mut q = q0;
     let mut t = 0.0;
     truth.push(&q, t);

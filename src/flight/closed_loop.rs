@@ -405,6 +405,13 @@ impl<const N: usize> Executor<N> {
         self.mode
     }
 
+    /// Each joint's rate limit as the executor applies it (rad/s): the joint's own
+    /// velocity limit, or the robot's `q̇_max` where the joint has none.
+    #[must_use]
+    pub fn rate_limits(&self) -> &[f64; N] {
+        &self.qd_limit
+    }
+
     /// The next measurement's cycle `k`.
     #[must_use]
     pub fn cycle(&self) -> u32 {
@@ -1011,10 +1018,9 @@ mod tests {
     }
 
     fn limits(task: &Task<7, 4>) -> [f64; 7] {
-        core::array::from_fn(|i| {
-            let v = task.robot().desc().joints[i].velocity;
-            if v > 0.0 { v } else { task.robot().qd_max() }
-        })
+        let q0 = *task.start();
+        let (exec, _) = Executor::new(LoopConfig::DEFAULT, task.robot(), &q0, 30.0, &q0).unwrap();
+        *exec.rate_limits()
     }
 
     /// A flight of the reference plan on `task`'s robot with perfect sensors (the truth

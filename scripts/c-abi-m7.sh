@@ -4,7 +4,9 @@
 # exists nowhere: `nm -u` must not name it), builds the C ABI test (ffi/tests/c/abi_test.c,
 # the host test's program) with Debian's arm-none-eabi-gcc and newlib against it, runs it
 # under QEMU mps2-an500 with semihosting, and compares its bits (eta, f, counts, trajectory
-# digest) with `host-sim record` of the same task; then the two-phase C test
+# digest) with `host-sim record` of the same task, and its closed-loop flight through rl_loop
+# (the commands' digest) with the same C program's on the host (which ffi/tests/c_abi.rs holds
+# to the core's PlanLoop); then the two-phase C test
 # (ffi/tests/c/two_phase_test.c: a two-phase block planned with rl_two_phase across a
 # checkpoint and restore, both phases streamed) in the same image, whose lines must equal
 # the same C code's on the host (which ffi/tests/c_abi.rs holds to host-sim's plan). Prints
@@ -51,6 +53,10 @@ gcc -std=c99 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
   ffi/tests/c/two_phase_test.c ffi/tests/c/two_phase_main.c \
   target/debug/libreactionless_ffi.a -lpthread -ldl -lm -o "$out/two_phase_host"
 "$out/two_phase_host" "$out/two_phase.block" > "$out/two_phase_host.txt"
+gcc -std=c99 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
+  ffi/tests/c/abi_test.c ffi/tests/c/host_main.c \
+  target/debug/libreactionless_ffi.a -lpthread -ldl -lm -o "$out/abi_host"
+"$out/abi_host" "$out/paper.block" "$out/other.block" > "$out/abi_host.txt"
 
 cflags=(-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror -mcpu=cortex-m7 -mthumb
   -mfloat-abi=hard -mfpu=fpv5-d16 -ffunction-sections -fdata-sections)
@@ -68,7 +74,7 @@ timeout 1200 qemu-system-arm -machine mps2-an500 -cpu cortex-m7 -nographic -moni
   -device loader,file="$out/two_phase.block",addr=0x203fc000 \
   -kernel "$out/abi_test.elf" 2>&1 | tee "$out/output.txt"
 
-python3 - "$out/output.txt" "$out/paper.json" "$out/two_phase_host.txt" <<'PY'
+python3 - "$out/output.txt" "$out/paper.json" "$out/two_phase_host.txt" "$out/abi_host.txt" <<'PY'
 import json, sys
 lines = open(sys.argv[1]).read().splitlines()
 got = dict(l.rsplit(" ", 1) for l in lines if " " in l)
@@ -89,6 +95,12 @@ if len(two) < 20 or host.get("TWO_STATUS") != "2":  # RL_CONVERGED
     print(f"FAIL: the host's two-phase C test did not converge: {host}")
     sys.exit(1)
 want.update(two)
+abi_host = dict(l.rsplit(" ", 1) for l in open(sys.argv[4]).read().splitlines() if " " in l)
+loop = {k: abi_host.get(k) for k in ("LOOP_DIGEST", "LOOP_CYCLES", "LOOP_MODE")}
+if None in loop.values() or loop["LOOP_MODE"] != "4":  # RL_LOOP_DONE
+    print(f"FAIL: the host's C test did not fly the loop to its end: {loop}")
+    sys.exit(1)
+want.update(loop)
 bad = [(k, got.get(k), v) for k, v in want.items() if got.get(k) != v]
 if bad:
     for k, g, v in bad:
@@ -97,6 +109,9 @@ if bad:
 print(f"ok: the Cortex-M7 C program matches host-sim's record bit for bit "
       f"(eta, f, {rec['rollouts']} rollouts, digest {rec['trajectory_digest']}), "
       f"across a checkpoint and restore at frame {got['RESTORED_AT_FRAME']}")
+print(f"ok: the Cortex-M7 closed-loop flight through rl_loop matches the host's bit for bit "
+      f"({got['LOOP_CYCLES']} cycles, commands' digest {got['LOOP_DIGEST']}); "
+      f"sizeof(rl_loop) {got['SIZES loop']} bytes")
 print(f"ok: the Cortex-M7 two-phase C test matches the host's bit for bit ({len(two)} lines: "
       f"q_s, eta, f, {got['TWO_ROLLOUTS']} rollouts, both phases' digests), across a "
       f"checkpoint and restore at frame 10; stack of rl_two_phase_step {got['TWO_STACK_STEP']} bytes, "

@@ -93,10 +93,11 @@ fn documented_two_phase_sizes() {
 /// The closed-loop executor's state and one cycle's command (docs/core.md).
 #[test]
 fn documented_closed_loop_sizes() {
-    use reactionless::closed_loop::{Command, Executor, LoopConfig, Measurement};
+    use reactionless::closed_loop::{Command, Executor, LoopConfig, Measurement, PlanLoop};
     let sizes = [
         ("LoopConfig", size_of::<LoopConfig>()),
         ("Executor<7>", size_of::<Executor<7>>()),
+        ("PlanLoop<7, 4>", size_of::<PlanLoop<7, 4>>()),
         ("Measurement<7>", size_of::<Measurement<7>>()),
         ("Command<7>", size_of::<Command<7>>()),
     ];
@@ -108,6 +109,7 @@ fn documented_closed_loop_sizes() {
         [
             ("LoopConfig", 112),
             ("Executor<7>", 648),
+            ("PlanLoop<7, 4>", 2288),
             ("Measurement<7>", 136),
             ("Command<7>", 120),
         ]

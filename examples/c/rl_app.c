@@ -6,18 +6,26 @@
  * reported as error events, and what must survive a processor reset in the Critical Data
  * Store: a checkpoint written after every planning frame. After a reset, RL_App_Init finds
  * the checkpoint, restores it, and planning continues bit for bit where it stopped. Once
- * planned, each wakeup streams a frame of setpoints to the joint controller. */
+ * planned, the plan is flown closed-loop (rl_loop, the default settings: 10 Hz): each
+ * wakeup is one control cycle. It hands the joint controller the rate command computed
+ * in the last wakeup (one period of latency, as the loop assumes), reads the sensors,
+ * computes the next command, and streams the period's setpoints of the plan as the
+ * reference. A sensor fault is an error event once; the loop then brings the arm to rest
+ * within its acceleration limit and the app stays in its safe state. */
 #include "rl_app.h"
 
 #include <string.h>
 
-/* Setpoints handed to the joint controller per wakeup (1 s of trajectory at dt = 10 ms). */
-#define RL_APP_SETPOINTS_PER_WAKEUP 100u
+/* Setpoints of the plan per wakeup: one control period (0.1 s) at the task's dt (10 ms). */
+#define RL_APP_SETPOINTS_PER_WAKEUP 10u
 
 static struct {
     RL_AppServices svc;
     rl_planner planner;
     rl_setpoints stream;
+    rl_loop flight;
+    rl_loop_command pending; /* computed last wakeup, handed to the joints this one */
+    uint8_t streaming;       /* 1 until the setpoint stream is done */
     rl_plan plan;
     uint32_t budget;
     RL_AppHk hk;
@@ -60,6 +68,9 @@ int32_t RL_App_Init(const RL_AppServices *svc, const uint8_t *table, size_t tabl
     return RL_OK;
 }
 
+static void fly_cycle(void);
+static void stream_frame(void);
+
 static void plan_frame(void) {
     rl_status s = rl_planner_step(&App.planner, App.budget, &App.plan);
     App.hk.last_status = s;
@@ -86,18 +97,29 @@ static void plan_frame(void) {
         fail("setpoint stream", s);
         return;
     }
-    App.hk.state = RL_APP_STREAMING;
+    App.streaming = 1;
+    /* Cycle 0's command (the plan's own, from rest) goes out in this wakeup, t = 0. */
+    s = RL_LOOP_INIT(&App.flight, &App.planner, NULL, &App.pending);
+    if (s != RL_OK) {
+        fail("closed-loop flight", s);
+        return;
+    }
+    App.hk.state = RL_APP_FLYING;
+    stream_frame();
+    if (App.hk.state == RL_APP_FLYING) fly_cycle();
 }
 
+/* The period's setpoints of the plan, the joint controller's reference (the first, t = 0,
+ * in the wakeup that starts the flight). */
 static void stream_frame(void) {
     uint32_t i;
     rl_setpoint sp;
-    for (i = 0; i < RL_APP_SETPOINTS_PER_WAKEUP; i++) {
+    for (i = 0; App.streaming && i < RL_APP_SETPOINTS_PER_WAKEUP; i++) {
         rl_status s = rl_setpoints_next(&App.stream, &App.planner, &sp);
         if (s == RL_DONE) {
             App.svc.event(RL_APP_EID_STREAMED, "INFO", "trajectory streamed",
                           (int32_t)App.hk.setpoints);
-            App.hk.state = RL_APP_IDLE;
+            App.streaming = 0;
             return;
         }
         if (s != RL_OK) {
@@ -109,14 +131,57 @@ static void stream_frame(void) {
     }
 }
 
+/* One control cycle: last wakeup's command to the joints, then this wakeup's measurements
+ * give the command held through the next period. */
+static void fly_cycle(void) {
+    rl_measurement m;
+    rl_status s;
+    uint32_t degraded = App.hk.loop_mode == RL_LOOP_DEGRADED;
+    App.svc.command(&App.pending);
+    App.hk.commands++;
+    App.hk.limited += App.pending.limited;
+    if (App.pending.finished) {
+        /* The command that brought the arm to rest is out: the flight is over. */
+        if (App.pending.mode == RL_LOOP_DONE) {
+            App.svc.event(RL_APP_EID_FLOWN, "INFO", "closed-loop flight complete",
+                          (int32_t)App.hk.commands);
+            App.hk.state = RL_APP_IDLE;
+        } else {
+            App.svc.event(RL_APP_EID_FAULT, "ERROR", "arm at rest in the safe state",
+                          (int32_t)App.pending.fault);
+            App.hk.state = RL_APP_SAFE;
+        }
+        return;
+    }
+    App.svc.measure(&m);
+    s = rl_loop_step(&App.flight, &App.planner, &m, &App.pending);
+    App.hk.last_status = s;
+    if (s != RL_OK && s != RL_DONE) {
+        /* A misuse of the ABI, not a sensor fault: nothing valid to command. */
+        fail("closed-loop step", s);
+        return;
+    }
+    App.hk.loop_mode = App.pending.mode;
+    App.hk.loop_fault = App.pending.fault;
+    if (App.pending.event) {
+        App.hk.errors++;
+        App.svc.event(RL_APP_EID_FAULT, "ERROR", rl_loop_fault_str(App.pending.fault),
+                      (int32_t)App.pending.sensor);
+    } else if (App.pending.mode == RL_LOOP_DEGRADED && !degraded) {
+        App.svc.event(RL_APP_EID_DEGRADED, "INFO", "a sensor is missing: flying on dead reckoning",
+                      (int32_t)App.pending.sensor);
+    }
+}
+
 void RL_App_Wakeup(void) {
     App.hk.wakeups++;
     switch (App.hk.state) {
     case RL_APP_PLANNING:
         plan_frame();
         break;
-    case RL_APP_STREAMING:
+    case RL_APP_FLYING:
         stream_frame();
+        if (App.hk.state == RL_APP_FLYING) fly_cycle();
         break;
     default:
         break;

@@ -12,6 +12,12 @@
  *   rl_two_phase_load_block(&search, block, block_len);
  *   while ((s = rl_two_phase_step(&search, units, &two)) == RL_RUNNING) { wait for the next frame }
  *
+ * A finished single-phase plan is flown closed-loop, one call per control cycle:
+ *   static rl_loop flight;
+ *   RL_LOOP_INIT(&flight, &planner, NULL, &cmd);      (NULL: the default settings)
+ *   each cycle: read the sensors into m; s = rl_loop_step(&flight, &planner, &m, &cmd);
+ *   hold cmd.rate_rad_s through the next cycle; report cmd.fault once when cmd.event is 1
+ *
  * Every function returns an rl_status (negative: an error, named by rl_status_str) unless
  * it says otherwise. Not thread-safe: one caller per planner. */
 
@@ -26,11 +32,13 @@
 #define RL_PLANNER_INIT(p) rl_planner_init((p), RL_ABI_VERSION, sizeof(rl_planner))
 /* Initialises a two-phase search likewise. */
 #define RL_TWO_PHASE_INIT(t) rl_two_phase_init((t), RL_ABI_VERSION, sizeof(rl_two_phase))
+/* Starts a closed-loop flight of a planner's finished plan likewise. */
+#define RL_LOOP_INIT(l, p, config, first) rl_loop_init((l), RL_ABI_VERSION, sizeof(rl_loop), (p), (config), (first))
 
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 4
+#define RL_ABI_VERSION 5
 
 /*
  Joints of the flight robot (N).
@@ -71,6 +79,108 @@
 #define RL_CHECKPOINT_CAPACITY ((RL_PLANNER_WORDS * 8) + 64)
 
 
+
+/*
+ Words (u64) of loop storage inside [`rl_loop`]: room for the loop on every target, with
+ headroom so that a small growth of the core keeps the ABI.
+ */
+#define RL_LOOP_WORDS 384
+
+/*
+ `rl_measurement.valid`: the star tracker's quaternion is present.
+ */
+#define RL_MEASURED_STAR_TRACKER 1
+
+/*
+ `rl_measurement.valid`: the gyro's rate is present.
+ */
+#define RL_MEASURED_GYRO 2
+
+/*
+ `rl_measurement.valid`: the joint encoders' angles are present.
+ */
+#define RL_MEASURED_JOINTS 4
+
+/*
+ `rl_loop_command.mode`: every sensor fresh, the plan and its corrections flown.
+ */
+#define RL_LOOP_NOMINAL 0
+
+/*
+ `rl_loop_command.mode`: a sensor (`sensor`) missing for a few cycles, flown on dead
+ reckoning.
+ */
+#define RL_LOOP_DEGRADED 1
+
+/*
+ `rl_loop_command.mode`: a fault; the joints decelerate to rest.
+ */
+#define RL_LOOP_STOPPING 2
+
+/*
+ `rl_loop_command.mode`: at rest after a fault (the safe state; nothing leaves it).
+ */
+#define RL_LOOP_STOPPED 3
+
+/*
+ `rl_loop_command.mode`: the flight is over (`t_f` and the correction after it).
+ */
+#define RL_LOOP_DONE 4
+
+/*
+ `rl_loop_command.sensor`: none.
+ */
+#define RL_SENSOR_NONE 0
+
+/*
+ `rl_loop_command.sensor`: the star tracker.
+ */
+#define RL_SENSOR_STAR_TRACKER 1
+
+/*
+ `rl_loop_command.sensor`: the gyro.
+ */
+#define RL_SENSOR_GYRO 2
+
+/*
+ `rl_loop_command.sensor`: the joint encoders.
+ */
+#define RL_SENSOR_JOINTS 3
+
+/*
+ `rl_loop_command.fault`: none.
+ */
+#define RL_FAULT_NONE 0
+
+/*
+ A measurement is NaN or infinite (`sensor`).
+ */
+#define RL_FAULT_NOT_FINITE 1
+
+/*
+ A measurement is out of range (`sensor`; `fault_joint` for the encoders).
+ */
+#define RL_FAULT_OUT_OF_RANGE 2
+
+/*
+ A sensor gave nothing for more than `max_missing_cycles` cycles (`sensor`).
+ */
+#define RL_FAULT_STALE 3
+
+/*
+ Joint `fault_joint` is not where the commands took it by `fault_value` rad.
+ */
+#define RL_FAULT_TRACKING 4
+
+/*
+ The base attitude estimate, `fault_value` rad, is beyond `base_limit_rad`.
+ */
+#define RL_FAULT_BASE_ERROR 5
+
+/*
+ The nominal model (or the plan's rollout) failed at the measured configuration.
+ */
+#define RL_FAULT_MODEL 6
 
 /*
  Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
@@ -218,6 +328,173 @@ typedef struct rl_setpoint {
      */
     double qd[RL_JOINTS];
 } rl_setpoint;
+
+/*
+ The loop's settings (`reactionless::closed_loop::LoopConfig`, documented in
+ docs/closed-loop.md); `rl_loop_config_default` fills the defaults.
+ */
+typedef struct rl_loop_config {
+    /*
+     Control period `T_c` (s): a whole multiple of the plan's `dt`.
+     */
+    double period_s;
+    /*
+     Base-attitude gain `k_b` (1/s); `k_b T_c < 1`.
+     */
+    double base_gain_per_s;
+    /*
+     End-effector gain `k_e` (1/s), `k_e T_c < 1`; 0 turns the end-effector task off.
+     */
+    double ee_gain_per_s;
+    /*
+     Damping `μ` of the base pseudo-inverse (dimensionless).
+     */
+    double base_damping;
+    /*
+     Damping `λ` of the end-effector pseudo-inverse (m).
+     */
+    double ee_damping_m;
+    /*
+     Length (m) weighing orientation errors against position errors.
+     */
+    double orientation_length_m;
+    /*
+     Weight `w_d` (1/m²) of the end effector's motion in the base correction.
+     */
+    double drag_weight_per_m2;
+    /*
+     Pull of the attitude estimate toward each star-tracker reading, in (0, 1].
+     */
+    double filter_gain;
+    /*
+     Pull of the drift estimate toward each cycle's, in [0, 1]; 0 turns it off.
+     */
+    double drift_gain;
+    /*
+     Base attitude estimate (rad) beyond which the loop goes to the safe state.
+     */
+    double base_limit_rad;
+    /*
+     Largest difference (rad) between a joint's reading and where the commands took it.
+     */
+    double tracking_tolerance_rad;
+    /*
+     Largest gyro rate (rad/s) in range.
+     */
+    double max_gyro_rate_rad_s;
+    /*
+     Joint acceleration limit (rad/s²) of every command change.
+     */
+    double qdd_max_rad_s2;
+    /*
+     Consecutive cycles a sensor may be missing before it is a fault.
+     */
+    uint32_t max_missing_cycles;
+    /*
+     Cycles of correction after `t_f`, the plan at rest.
+     */
+    uint32_t extend_cycles;
+} rl_loop_config;
+
+/*
+ A closed-loop flight in caller-owned storage (static app data). Initialise with
+ `rl_loop_init`; the members are private to the library.
+ */
+typedef struct rl_loop {
+    /*
+     Set by `rl_loop_init`.
+     */
+    uint32_t magic;
+    /*
+     Unused (alignment).
+     */
+    uint32_t reserved;
+    /*
+     Digest of the task block of the planner whose plan it flies.
+     */
+    uint64_t task;
+    /*
+     The loop itself.
+     */
+    uint64_t storage[RL_LOOP_WORDS];
+} rl_loop;
+
+/*
+ What one cycle returns.
+ */
+typedef struct rl_loop_command {
+    /*
+     Joint rates (rad/s) to hold through the next cycle: never beyond a joint's rate
+     limit, never changed by more than `qdd_max_rad_s2 · period_s` from the last.
+     */
+    double rate_rad_s[RL_JOINTS];
+    /*
+     The base rotation since `t = 0` the loop estimates (rotation vector, rad).
+     */
+    double base_estimate_rad[3];
+    /*
+     With `RL_FAULT_TRACKING` the joint's error (rad), with `RL_FAULT_BASE_ERROR` the
+     base estimate's angle (rad); 0 otherwise.
+     */
+    double fault_value;
+    /*
+     The cycle `k` of the measurements this command answered (0 for `rl_loop_init`'s).
+     */
+    uint32_t cycle;
+    /*
+     `RL_LOOP_NOMINAL`, `RL_LOOP_DEGRADED`, `RL_LOOP_STOPPING`, `RL_LOOP_STOPPED` or
+     `RL_LOOP_DONE`, after this cycle.
+     */
+    uint32_t mode;
+    /*
+     `RL_FAULT_*`: why the loop is stopping or stopped (`RL_FAULT_NONE` otherwise).
+     */
+    uint32_t fault;
+    /*
+     `RL_SENSOR_*`: the sensor of the fault, or the missing one when degraded.
+     */
+    uint32_t sensor;
+    /*
+     The joint (1-based) of an out-of-range or tracking fault, 0 otherwise.
+     */
+    uint32_t fault_joint;
+    /*
+     1 in the cycle that found the fault (report it once), else 0.
+     */
+    uint32_t event;
+    /*
+     1 if a limit changed the command of some joint, else 0.
+     */
+    uint32_t limited;
+    /*
+     1 once nothing more is to be flown (`RL_LOOP_DONE` or `RL_LOOP_STOPPED`, at rest).
+     */
+    uint32_t finished;
+} rl_loop_command;
+
+/*
+ What the sensors gave at the start of a cycle. A sensor whose bit is clear in `valid`
+ is missing this cycle (its members are ignored).
+ */
+typedef struct rl_measurement {
+    /*
+     `RL_MEASURED_STAR_TRACKER | RL_MEASURED_GYRO | RL_MEASURED_JOINTS`, each bit set if
+     that sensor's reading is present.
+     */
+    uint32_t valid;
+    /*
+     Star tracker: the base attitude in its frame, unit quaternion `w, x, y, z`.
+     */
+    double star_tracker_wxyz[4];
+    /*
+     Gyro: the base's mean angular rate over the last cycle (rad/s, base frame).
+     */
+    double gyro_rad_s[3];
+    /*
+     Joint encoders (rad).
+     */
+    double joints_rad[RL_JOINTS];
+} rl_measurement;
 
 /*
  A two-phase search in caller-owned storage (static app data). Initialise with
@@ -488,6 +765,13 @@ typedef struct rl_two_phase_plan {
  */
 #define RL_E_PHASE -25
 
+/*
+ [`rl_loop_config`] holds a value the loop refuses (a setting not finite, out of its
+ range, an unstable gain `k T_c ≥ 1`, or a control period that is not a whole number of
+ the plan's `dt`).
+ */
+#define RL_E_LOOP_SETTING -26
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -605,6 +889,60 @@ rl_status rl_planner_restore(struct rl_planner *p, const uint8_t *buf, size_t le
  Static text naming a status or error (never NULL; unknown codes get a text too).
  */
 const char *rl_status_str(rl_status s);
+
+/*
+ Fills `*out` with the loop's defaults: 10 Hz, `k_b` 4/s, `k_e` 1/s, filter gain 0.05,
+ base limit 0.1°, `qdd_max` 0.5 rad/s², 3 missing cycles, 30 cycles after `t_f`
+ (docs/closed-loop.md).
+
+ # Safety
+ `out` is NULL or writable.
+ */
+rl_status rl_loop_config_default(struct rl_loop_config *out);
+
+/*
+ Starts the closed-loop flight of the planner's finished plan: `l` holds it from now on,
+ `*first` gets the command of cycle 0 (the plan's own, from rest: fly it through
+ `[0, T_c)`). `config` NULL takes the defaults. `abi_version` and `size` are the
+ caller's `RL_ABI_VERSION` and `sizeof(rl_loop)` (`RL_E_ABI_VERSION`, `RL_E_SIZE`).
+ A planner without a task is `RL_E_NO_TASK`, one without a finished plan
+ `RL_E_NO_PLAN`; a setting the loop refuses is `RL_E_LOOP_SETTING`, a plan whose rollout
+ fails `RL_E_STREAM`. On an error `l` is left as it was.
+
+ # Safety
+ `l` is NULL or writable, aligned storage of `sizeof(rl_loop)` bytes (it need not be
+ initialised); `p` NULL or an initialised planner; `config` NULL or readable; `first`
+ NULL or writable; none accessed elsewhere during the call.
+ */
+rl_status rl_loop_init(struct rl_loop *l,
+                       uint32_t abi_version,
+                       size_t size,
+                       const struct rl_planner *p,
+                       const struct rl_loop_config *config,
+                       struct rl_loop_command *first);
+
+/*
+ One control cycle: the measurements taken at `t_k` in, the command to hold through
+ cycle `k + 1` out. `RL_OK` while there is more to fly; `RL_DONE` with the command that
+ finishes the flight (at rest: `t_f` and the correction after it are over, or the safe
+ state is reached) and on every later call. A bad, missing or stale measurement is not
+ an error of the call: see `out->mode`, `out->fault` and `out->event`. `p` must be the
+ planner the loop was started from (its task: `RL_E_MISMATCH` otherwise). Costs one
+ executor cycle and `T_c / dt` steps of the plan's rollout.
+
+ # Safety
+ `l` NULL or a loop initialised by `rl_loop_init`; `p` NULL or an initialised planner;
+ `m` NULL or readable; `out` NULL or writable; none accessed elsewhere during the call.
+ */
+rl_status rl_loop_step(struct rl_loop *l,
+                       const struct rl_planner *p,
+                       const struct rl_measurement *m,
+                       struct rl_loop_command *out);
+
+/*
+ Static text naming an `RL_FAULT_*` code (never NULL; unknown codes get a text too).
+ */
+const char *rl_loop_fault_str(uint32_t fault);
 
 /*
  Initialises `t` as an idle two-phase search without a task. `abi_version` and

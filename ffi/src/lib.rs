@@ -7,7 +7,8 @@
 //! Owns the exported `rl_*` functions, the C types they take ([`rl_planner`],
 //! [`rl_setpoints`], [`rl_plan`], [`rl_setpoint`]), the status codes, and the checkpoint
 //! format ([`checkpoint`], also the Rust API for checkpoint and restore); the two-phase
-//! search's type and functions are in [`two_phase`] ([`rl_two_phase`]). The header
+//! search's type and functions are in [`two_phase`] ([`rl_two_phase`]), the closed-loop
+//! flight of a finished plan in [`closed_loop`] ([`rl_loop`]). The header
 //! `ffi/include/reactionless.h` is generated from these files by cbindgen and checked in
 //! (`scripts/check-header.sh`; `BLESS=1` to accept a change).
 //!
@@ -48,7 +49,13 @@
 extern crate std;
 
 pub mod checkpoint;
+pub mod closed_loop;
 pub mod two_phase;
+
+pub use closed_loop::{
+    FlightLoop, RL_E_LOOP_SETTING, RL_LOOP_WORDS, rl_loop, rl_loop_command, rl_loop_config,
+    rl_loop_config_default, rl_loop_fault_str, rl_loop_init, rl_loop_step, rl_measurement,
+};
 
 pub use two_phase::{
     FlightTwoPhase, RL_TWO_PHASE_CHECKPOINT_CAPACITY, RL_TWO_PHASE_WORDS, rl_two_phase,
@@ -68,7 +75,7 @@ pub type FlightPlanner = Planner<7, 4, 64>;
 pub type FlightSetpoints = Setpoints<7, 4>;
 
 /// Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
-pub const RL_ABI_VERSION: u32 = 4;
+pub const RL_ABI_VERSION: u32 = 5;
 /// Joints of the flight robot (N).
 pub const RL_JOINTS: usize = 7;
 /// Entries of one segment's η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
@@ -761,6 +768,9 @@ pub extern "C" fn rl_status_str(s: rl_status) -> *const c_char {
         RL_DONE => c"RL_DONE: last setpoint produced",
         RL_E_NULL => c"RL_E_NULL: a pointer argument is NULL",
         RL_E_ABI_VERSION => c"RL_E_ABI_VERSION: header and library ABI versions differ",
+        RL_E_LOOP_SETTING => {
+            c"RL_E_LOOP_SETTING: an rl_loop_config value the loop refuses (range, unstable gain, period not a multiple of dt)"
+        }
         RL_E_SIZE => c"RL_E_SIZE: sizeof(rl_planner) differs between header and library",
         RL_E_UNINITIALIZED => c"RL_E_UNINITIALIZED: object not initialised",
         RL_E_NO_TASK => c"RL_E_NO_TASK: the planner has no task (load a block)",

@@ -96,10 +96,11 @@ fn parse(text: &str) -> BTreeMap<String, String> {
 
 /// The C program plans paper.toml's block through the C ABI at the task's frame budget,
 /// checkpoints and restores once in the middle, streams the setpoints, and gets the bits of
-/// host-sim's record: η, f, the counts and the trajectory digest. Every misuse check
+/// host-sim's record: η, f, the counts and the trajectory digest; then flies the plan
+/// closed-loop through `rl_loop` and gets the core's commands bit for bit. Every misuse check
 /// (NULL pointers, bad ABI version and size, corrupted blocks and checkpoints, another
 /// task's checkpoint, wrong states) returns its error.
-/// Verifies RL-FFI-001, RL-FFI-002, RL-FFI-003, RL-FFI-004, RL-FFI-005.
+/// Verifies RL-FFI-001, RL-FFI-002, RL-FFI-003, RL-FFI-004, RL-FFI-005, RL-FFI-014.
 #[test]
 fn c_program_matches_the_record_across_a_checkpoint() {
     let dir = out_dir();
@@ -139,6 +140,14 @@ fn c_program_matches_the_record_across_a_checkpoint() {
     assert!(at > 1 && at < frames, "restored at frame {at} of {frames}");
     let checks: u32 = got["CHECKS"].parse().unwrap();
     assert!(checks > 60, "{checks} checks");
+    // The plan flown closed-loop through rl_loop: the core's commands bit for bit.
+    let (digest, commands, _) = core_flight(&block);
+    want("LOOP_DIGEST", digest);
+    want("LOOP_CYCLES", (commands - 1).to_string());
+    want(
+        "LOOP_MODE",
+        reactionless_ffi::closed_loop::RL_LOOP_DONE.to_string(),
+    );
 }
 
 /// The checked-in header compiles as C++11 with every warning an error, and links.
@@ -211,4 +220,127 @@ fn c_program_plans_a_two_phase_block() {
     want("SAMPLES2", host.outputs.trajectory_samples.to_string());
     let frames: u32 = got["TWO_FRAMES"].parse().unwrap();
     assert!(frames > 10, "{frames} frames");
+}
+
+/// `examples/c`, the cFS-style app, compiled as C99 with every warning an error against
+/// the checked-in header and the staticlib: it plans the reference task across a simulated
+/// processor reset, streams the record's trajectory digest, and flies the plan closed-loop
+/// through `rl_loop` with one control cycle per wakeup, its commands bit-identical to the
+/// core's `PlanLoop` under the same stand-in hardware (joints that follow each command
+/// exactly, a base held still). With the encoders reading NaN from the 50th flight wakeup
+/// on, the app reports the fault once as an error event and ends at rest in its safe state.
+/// Verifies RL-FFI-008, RL-FFI-014.
+#[test]
+fn cfs_example_flies_the_plan_closed_loop() {
+    let dir = out_dir();
+    let block = dir.join("paper.block");
+    block_of("spec/tasks/paper.toml", &block);
+    let exe = dir.join("rl_app_demo");
+    let mut gcc = Command::new("gcc");
+    gcc.args([
+        "-std=c99",
+        "-O2",
+        "-Wall",
+        "-Wextra",
+        "-Wpedantic",
+        "-Werror",
+        "-I",
+    ])
+    .arg(root().join("ffi/include"));
+    for s in ["main.c", "rl_app.c"] {
+        gcc.arg(root().join("examples/c").join(s));
+    }
+    run(gcc
+        .arg(staticlib())
+        .args(["-lpthread", "-ldl", "-lm", "-o"])
+        .arg(&exe));
+    let text = run(Command::new(&exe).arg(&block));
+    println!("{text}");
+    let got = parse(&text);
+
+    let lt = taskfile::load(&root().join("spec/tasks/paper.toml")).unwrap();
+    let rec = host_sim::records::outputs_of::<7, 4>(&lt, &Overrides::default())
+        .unwrap()
+        .outputs;
+    assert_eq!(got.get("DIGEST"), Some(&rec.trajectory_digest), "{text}");
+
+    let (digest, commands, q) = core_flight(&block);
+    assert_eq!(got["COMMANDS"], commands.to_string(), "{text}");
+    assert_eq!(
+        got["LOOP_MODE"],
+        reactionless_ffi::closed_loop::RL_LOOP_DONE.to_string()
+    );
+    assert_eq!(got["LOOP_DIGEST"], digest, "{text}");
+    for (i, v) in q.iter().enumerate() {
+        let c: f64 = got[&format!("Q{}", i + 1)].parse().unwrap();
+        assert_eq!(c.to_bits(), v.to_bits(), "joint {}", i + 1);
+    }
+
+    let text = run(Command::new(&exe).arg(&block).arg("50"));
+    let got = parse(&text);
+    assert_eq!(
+        got["LOOP_MODE"],
+        reactionless_ffi::closed_loop::RL_LOOP_STOPPED.to_string()
+    );
+    assert_eq!(
+        got["LOOP_FAULT"],
+        reactionless_ffi::closed_loop::RL_FAULT_NOT_FINITE.to_string()
+    );
+    let faults = text
+        .lines()
+        .filter(|l| l.contains("RL_FAULT_NOT_FINITE"))
+        .count();
+    assert_eq!(faults, 1, "the fault is reported once:\n{text}");
+    assert!(text.contains("arm at rest in the safe state"), "{text}");
+}
+
+/// The closed-loop flight of `block`'s plan through the core's `PlanLoop` (the default
+/// settings) on the C programs' stand-in hardware: joints that follow each command exactly
+/// over its period, encoders that read them exactly, a base held still. The digest of every
+/// command (cycle 0's first, the one that comes to rest last), their count, and where the
+/// joints end.
+fn core_flight(block: &Path) -> (String, u32, [f64; 7]) {
+    use reactionless::closed_loop::{LoopConfig, Measurement, Mode, PlanLoop};
+    use reactionless::{Planner, Status, TrajectoryDigest};
+    let bytes = std::fs::read(block).unwrap();
+    let decoded = reactionless::block::decode::<7>(&bytes).unwrap();
+    let mut planner: Box<Planner<7, 4, 64>> = Box::new(Planner::IDLE);
+    decoded.load_into(&mut planner).unwrap();
+    let eta = loop {
+        if let Status::Finished(p) = planner.step(u32::MAX, &mut ()).unwrap() {
+            break p.eta;
+        }
+    };
+    let task = planner.task();
+    let config = LoopConfig::DEFAULT;
+    let (mut flight, first) = PlanLoop::new(config, task, &eta).unwrap();
+    let mut digest = TrajectoryDigest::new();
+    let mut q = *task.start();
+    let mut held = first;
+    let mut commands = 0;
+    loop {
+        for v in &held {
+            digest.push(*v);
+        }
+        commands += 1;
+        let m = Measurement {
+            star_tracker: Some([1.0, 0.0, 0.0, 0.0]),
+            gyro: Some([0.0; 3]),
+            joints: Some(q),
+        };
+        let c = flight.step(task, &m);
+        for (qi, v) in q.iter_mut().zip(held.iter()) {
+            *qi += v * config.period;
+        }
+        held = c.rate;
+        if matches!(c.mode, Mode::Done) && c.rate.iter().all(|v| *v == 0.0) {
+            for v in &held {
+                digest.push(*v);
+            }
+            commands += 1;
+            break;
+        }
+        assert!(commands < 1000, "the flight does not end");
+    }
+    (format!("0x{:016x}", digest.value()), commands, q)
 }

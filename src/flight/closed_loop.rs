@@ -4,8 +4,9 @@
 //!
 //! Owns [`LoopConfig`] (gains, filter and fault settings: immutable, validated once),
 //! [`Measurement`] (what the sensors gave at the start of a cycle), [`Executor`] (the
-//! estimates and the mode), [`Command`] (what it returns each cycle) and the mode machine
-//! [`Mode`] / [`Fault`].
+//! estimates and the mode), [`Command`] (what it returns each cycle), the mode machine
+//! [`Mode`] / [`Fault`], and [`PlanLoop`] (an executor with the plan's rollout it follows,
+//! for a caller without a plan stream: the C ABI's `rl_loop`).
 //!
 //! **Timing** (spec §12). Measurements taken at `t_k = k T_c` give the command applied
 //! through cycle `k + 1`, `[t_{k+1}, t_{k+2})`, held constant (one period of latency). The
@@ -773,6 +774,17 @@ impl<const N: usize> Executor<N> {
     }
 
     /// The safe state: each joint's rate toward zero by at most `qdd_max T_c`.
+    /// A fault found outside [`Executor::step`] (by [`PlanLoop`]): the cycle is spent as
+    /// `step` spends a faulty one, toward rest.
+    fn fail(&mut self, fault: Fault) -> Command<N> {
+        self.cycle = self.cycle.saturating_add(1);
+        if let Mode::Stopping(f) | Mode::Stopped(f) = self.mode {
+            return self.stop(f, None);
+        }
+        self.mode = Mode::Stopping(fault);
+        self.stop(fault, Some(fault))
+    }
+
     fn stop(&mut self, fault: Fault, event: Option<Fault>) -> Command<N> {
         let rate = self.toward_rest();
         self.advance(rate);
@@ -882,22 +894,10 @@ pub fn fly_ideal<const N: usize, const K: usize>(
     config: LoopConfig,
     hook: &mut impl FnMut(bool),
 ) -> Result<IdealFlight, Error> {
-    let motion = nominal.motion();
-    let dt = motion.dt();
-    let per = libm::round(config.period / dt);
-    if !(1.0..=1e6).contains(&per) || libm::fabs(per * dt - config.period) > 1e-9 * config.period {
-        return Err(Error::LoopSetting(Param::ControlPeriod));
-    }
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let per = per as u32;
-    let mut plan = PlanCursor {
-        setpoints: crate::Setpoints::of(nominal, eta)?,
-        last: *nominal.start(),
-        step: 0,
-    };
+    let dt = nominal.motion().dt();
+    let (mut flight, mut rate) = PlanLoop::new(config, nominal, eta)?;
+    let per = flight.steps_per_cycle;
     let q0 = *nominal.start();
-    let first = plan.at(nominal, per)?;
-    let (mut exec, mut rate) = Executor::new(config, nominal.robot(), &q0, motion.tf(), &first)?;
     let mut state = crate::TruthState::<N>::new(crate::TRUTH_SUBSTEPS);
     let mut q = q0;
     let mut t = 0.0;
@@ -905,7 +905,10 @@ pub fn fly_ideal<const N: usize, const K: usize>(
     let mut prev = state.attitude();
     let mut digest = crate::TrajectoryDigest::new();
     // Bounded: the flight's cycles, then at most MAX_STOP_CYCLES to come to rest.
-    let most = exec.total_cycles().saturating_add(MAX_STOP_CYCLES);
+    let most = flight
+        .executor
+        .total_cycles()
+        .saturating_add(MAX_STOP_CYCLES);
     let mut cycles = 0;
     for k in 0..most {
         let att = state.attitude();
@@ -916,9 +919,9 @@ pub fn fly_ideal<const N: usize, const K: usize>(
             gyro: Some([w.x, w.y, w.z]),
             joints: Some(q),
         };
-        let ahead = plan.at(nominal, k.saturating_add(2).saturating_mul(per))?;
+        let ahead = flight.ahead(nominal)?;
         hook(true);
-        let c = exec.step(nominal.robot(), &m, &ahead);
+        let c = flight.executor.step(nominal.robot(), &m, &ahead);
         hook(false);
         for v in &c.rate {
             digest.push(*v);
@@ -944,11 +947,101 @@ pub fn fly_ideal<const N: usize, const K: usize>(
         digest: digest.value(),
         max_angle: state.max_angle(),
         end: state.end_pose(truth).ok_or(Error::NotInitialized)?,
-        mode: exec.mode(),
+        mode: flight.executor.mode(),
     })
 }
 
+/// An [`Executor`] and the plan it flies: what a flight application holds between
+/// control cycles when it has no plan stream of its own (the C ABI's `rl_loop`). Each
+/// [`PlanLoop::step`] advances the plan's setpoints by one control period (the rollout,
+/// `T_c / dt` integration steps) and runs the executor on the plan's configuration two
+/// periods ahead, as [`Executor::step`] asks.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanLoop<const N: usize, const K: usize> {
+    executor: Executor<N>,
+    plan: PlanCursor<N, K>,
+    /// Integration steps per control period, `T_c / dt`.
+    steps_per_cycle: u32,
+}
+
+impl<const N: usize, const K: usize> PlanLoop<N, K> {
+    /// The closed-loop flight of the plan `eta` of `task` (the nominal model), and the
+    /// command to fly through cycle 0 ([`Executor::new`]).
+    ///
+    /// # Errors
+    /// [`Error::LoopSetting`] with [`Param::ControlPeriod`] if `T_c` is not a whole number
+    /// of the task's `dt` (relative tolerance 1e-9); an invalid configuration
+    /// ([`LoopConfig::validate`]); errors of the plan's rollout ([`crate::Setpoints::of`]).
+    pub fn new(
+        config: LoopConfig,
+        task: &crate::Task<N, K>,
+        eta: &crate::Eta<K>,
+    ) -> Result<(Self, [f64; N]), Error> {
+        config.validate()?;
+        let motion = task.motion();
+        let dt = motion.dt();
+        let per = libm::round(config.period / dt);
+        if !(1.0..=1e6).contains(&per)
+            || libm::fabs(per * dt - config.period) > 1e-9 * config.period
+        {
+            return Err(Error::LoopSetting(Param::ControlPeriod));
+        }
+        // In range by the check above.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let per = per as u32;
+        let mut plan = PlanCursor {
+            setpoints: crate::Setpoints::of(task, eta)?,
+            last: *task.start(),
+            step: 0,
+        };
+        let first = plan.at(task, per)?;
+        let (executor, command) =
+            Executor::new(config, task.robot(), task.start(), motion.tf(), &first)?;
+        Ok((
+            Self {
+                executor,
+                plan,
+                steps_per_cycle: per,
+            },
+            command,
+        ))
+    }
+
+    /// One control cycle (see [`Executor::step`]) with the measurements taken at `t_k`;
+    /// `task` is the one given to [`PlanLoop::new`]. Never fails: a plan whose rollout
+    /// fails is a [`Fault::Model`] and the arm is brought to rest.
+    pub fn step(&mut self, task: &crate::Task<N, K>, m: &Measurement<N>) -> Command<N> {
+        match self.ahead(task) {
+            Ok(ahead) => self.executor.step(task.robot(), m, &ahead),
+            Err(e) => self.executor.fail(Fault::Model(e)),
+        }
+    }
+
+    /// The executor (mode, estimates, cycle, rate limits).
+    #[must_use]
+    pub fn executor(&self) -> &Executor<N> {
+        &self.executor
+    }
+
+    /// Integration steps of the plan per control period (`T_c / dt`).
+    #[must_use]
+    pub fn steps_per_cycle(&self) -> u32 {
+        self.steps_per_cycle
+    }
+
+    /// The plan's configuration at `t_{k+2}` for the executor's next cycle `k`.
+    fn ahead(&mut self, task: &crate::Task<N, K>) -> Result<[f64; N], Error> {
+        let s = self
+            .executor
+            .cycle()
+            .saturating_add(2)
+            .saturating_mul(self.steps_per_cycle);
+        self.plan.at(task, s)
+    }
+}
+
 /// The plan's configuration at integration step `s`, streamed forward only.
+#[derive(Debug, Clone, Copy)]
 struct PlanCursor<const N: usize, const K: usize> {
     setpoints: crate::Setpoints<N, K>,
     last: [f64; N],

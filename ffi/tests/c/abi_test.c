@@ -20,6 +20,7 @@
 static rl_planner planner;
 static rl_planner other;
 static rl_setpoints stream;
+static rl_loop flight;
 static uint8_t saved[RL_CHECKPOINT_CAPACITY];
 static uint8_t scratch[4096];
 
@@ -190,6 +191,67 @@ static void misuse_checkpoint(const uint8_t *other_block, size_t other_len, size
            RL_E_CKPT_TASK);
 }
 
+/* Flies the plan closed-loop through rl_loop on stand-in hardware (joints that follow each
+ * command exactly over its period, encoders that read them exactly, a base held still):
+ * the commands' digest (every command, cycle 0's first), the cycles, the end mode, and the
+ * stack of rl_loop_step. */
+static void fly_closed_loop(const double *q0) {
+    rl_loop_config cfg;
+    rl_loop_command cmd, scratch_cmd;
+    rl_measurement m;
+    double q[RL_JOINTS], held[RL_JOINTS];
+    uint64_t loop_digest = 0xcbf29ce484222325ull;
+    uint32_t cycles = 0, max_stack = 0, stack;
+    rl_status s;
+    int i;
+    expect("loop config NULL", rl_loop_config_default(NULL), RL_E_NULL);
+    expect("loop config", rl_loop_config_default(&cfg), RL_OK);
+    expect("loop NULL", RL_LOOP_INIT(NULL, &planner, &cfg, &cmd), RL_E_NULL);
+    expect("loop wrong size",
+           rl_loop_init(&flight, RL_ABI_VERSION, sizeof flight - 8u, &planner, &cfg, &cmd),
+           RL_E_SIZE);
+    cfg.base_gain_per_s = 10.0; /* k_b T_c = 1: unstable */
+    expect("loop unstable gain", RL_LOOP_INIT(&flight, &planner, &cfg, &cmd), RL_E_LOOP_SETTING);
+    expect("loop config again", rl_loop_config_default(&cfg), RL_OK);
+    expect("loop", RL_LOOP_INIT(&flight, &planner, &cfg, &cmd), RL_OK);
+    memset(&m, 0, sizeof m);
+    m.valid = RL_MEASURED_STAR_TRACKER | RL_MEASURED_GYRO | RL_MEASURED_JOINTS;
+    m.star_tracker_wxyz[0] = 1.0;
+    memcpy(q, q0, sizeof q);
+    memcpy(m.joints_rad, q, sizeof q);
+    expect("loop another planner", rl_loop_step(&flight, &other, &m, &scratch_cmd), RL_E_MISMATCH);
+    expect("loop NULL measurement", rl_loop_step(&flight, &planner, NULL, &scratch_cmd), RL_E_NULL);
+    for (;;) {
+        for (i = 0; i < RL_JOINTS; i++) {
+            loop_digest = fnv_push(loop_digest, cmd.rate_rad_s[i]);
+            held[i] = cmd.rate_rad_s[i];
+        }
+        if (cmd.finished || cycles > 1000u) {
+            break;
+        }
+        memcpy(m.joints_rad, q, sizeof q);
+        rl_test_stack_reset();
+        s = rl_loop_step(&flight, &planner, &m, &cmd);
+        stack = rl_test_stack_used();
+        if (stack > max_stack) {
+            max_stack = stack;
+        }
+        if (s != RL_OK && s != RL_DONE) {
+            expect("loop step", s, RL_OK);
+            return;
+        }
+        for (i = 0; i < RL_JOINTS; i++) {
+            q[i] += held[i] * cfg.period_s;
+        }
+        cycles++;
+    }
+    expect("loop end", rl_loop_step(&flight, &planner, &m, &scratch_cmd), RL_DONE);
+    line_u32("LOOP_CYCLES", cycles);
+    line_u32("LOOP_MODE", cmd.mode);
+    line_hex("LOOP_DIGEST", loop_digest);
+    line_u32("STACK loop_step", max_stack);
+}
+
 int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other_block, size_t other_len) {
     rl_plan plan;
     rl_setpoint sp;
@@ -201,11 +263,13 @@ int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other_block, si
     uint32_t max_next_stack = 0;
     uint32_t stack = 0;
     uint64_t digest = 0xcbf29ce484222325ull;
+    double q0[RL_JOINTS] = {0};
     size_t size = rl_checkpoint_size();
     int i;
 
     line_u32("SIZES planner", (uint32_t)sizeof(rl_planner));
     line_u32("SIZES setpoints", (uint32_t)sizeof(rl_setpoints));
+    line_u32("SIZES loop", (uint32_t)sizeof(rl_loop));
     line_u32("SIZES checkpoint", (uint32_t)size);
     if (size > sizeof saved) {
         rl_test_write("FAIL checkpoint larger than RL_CHECKPOINT_CAPACITY\n");
@@ -290,6 +354,9 @@ int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other_block, si
         if (s != RL_OK) {
             break;
         }
+        if (samples == 0) {
+            memcpy(q0, sp.q, sizeof q0);
+        }
         digest = fnv_push(digest, sp.t);
         for (i = 0; i < RL_JOINTS; i++) {
             digest = fnv_push(digest, sp.q[i]);
@@ -304,6 +371,7 @@ int rl_test_run(const uint8_t *block, size_t len, const uint8_t *other_block, si
     line_u32("STACK setpoints_next", max_next_stack);
     line_u32("SAMPLES", samples);
     line_hex("DIGEST", digest);
+    fly_closed_loop(q0);
 
     line_u32("CHECKS", checks);
     line_u32("FAILURES", failures);

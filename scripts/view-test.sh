@@ -13,7 +13,11 @@
 #    differ from the background.
 # Needs chromium (apt-get install -y chromium) and python3; builds host-sim (release) unless
 # HOST_SIM names one.
-# Usage: scripts/view-test.sh [OUT_DIR]   (default target/view-test). Verifies RL-SIM-VIEW-001..004.
+#  - exports a closed-loop flight of the reference plan (disperse --closed-loop
+#    --export-sample 2), draws it, and checks that the DOM state carries the loop's estimate
+#    of the cycle shown (cycles.csv's) and the panel names it.
+# Usage: scripts/view-test.sh [OUT_DIR]   (default target/view-test). Verifies RL-SIM-VIEW-001..004,
+# RL-SIM-VIEW-006.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-target/view-test}
@@ -148,4 +152,37 @@ print(f"{name}: ee at t=0 within {e0:.1e} m of the start pose, at t_f within {ef
 PY
 done
 cp "$OUT/paper.png" "$OUT/view.png"
+
+# A closed-loop flight: sample 2 of the README's dispersion, exported and drawn; the DOM's
+# state carries the loop's estimate at the cycle shown, and the end is the flight's.
+echo "== closed loop (sample 2 of seed 1)"
+"$H" disperse "$OUT/paper" --seed 1 --mass-rel-sigma 0.05 --inertia-rel-sigma 0.1 \
+  --com-sigma-m 0.01 --closed-loop --export-sample 2 --out "$OUT/flight" 2>/dev/null
+"$H" view "$OUT/flight" --out "$OUT/flight.html" 2>/dev/null
+tend=$(python3 -c 'import sys; print(open(sys.argv[1]).read().splitlines()[-1].split(",")[0])' "$OUT/flight/trajectory.csv")
+dump "file://$OUT/flight.html?t=$tend" > "$OUT/flight.tf.html"
+dump "file://$OUT/flight.html?t=15" > "$OUT/flight.tmid.html"
+shot "file://$OUT/flight.html?t=15" "$OUT/flight.png"
+python3 - "$OUT" <<'PY'
+import csv, html, json, re, sys
+out = sys.argv[1]
+summary = json.load(open(f"{out}/flight/summary.json"))
+cycles = list(csv.DictReader(open(f"{out}/flight/cycles.csv")))
+def state(which):
+    dom = open(f"{out}/flight.{which}.html", encoding="utf-8").read()
+    m = re.search(r'<pre id="rl-state">(.*?)</pre>', dom, re.S)
+    assert m, f"flight {which}: no <pre id=rl-state> in the DOM (the page did not draw)"
+    return json.loads(html.unescape(m.group(1)))
+sf, sm = state("tf"), state("tmid")
+ef = sum((a - b) ** 2 for a, b in zip(sf["ee_position_m"], summary["end_pose"]["position"])) ** 0.5
+assert ef <= 1e-9, f"flight: end effector at the end vs summary.json: {ef:.3e} m"
+assert sf["base_estimate_deg"] == float(cycles[-1]["estimate_deg"]), sf
+mid = [c for c in cycles if float(c["t_s"]) <= sm["t"]][-1]
+assert sm["base_estimate_deg"] == float(mid["estimate_deg"]), (sm, mid)
+assert 0 < sm["base_angle_deg"] <= summary["figures"]["base_disturbance_deg"]
+dom = open(f"{out}/flight.tmid.html", encoding="utf-8").read()
+assert "the loop estimates" in dom, "the panel does not show the loop's estimate"
+print(f"flight: the end within {ef:.1e} m of summary.json, the loop's estimate at t={sm['t']} "
+      f"is cycles.csv's ({sm['base_estimate_deg']:.3e} deg, truth {sm['base_angle_deg']:.3e} deg)")
+PY
 echo "view-test: PASS ($OUT)"

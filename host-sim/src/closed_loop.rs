@@ -55,6 +55,39 @@ pub struct Flight {
     pub fault: Option<Fault>,
 }
 
+/// `summary.json` of an exported closed-loop flight (`disperse --closed-loop
+/// --export-sample K --out DIR`): what the sample is, how it ended, and what `host-sim
+/// view DIR` needs to draw it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FlightSummary {
+    /// Always `closed_loop_sample`.
+    pub kind: String,
+    /// The run's seed.
+    pub seed: u64,
+    /// The sample (0-based).
+    pub sample: u64,
+    /// Planner-model end pose of the last flown configuration on the dispersed robot
+    /// (identity base attitude, base placed by CoM conservation; m, unit quaternion): the
+    /// last row of trajectory.csv, as `plan`'s `summary.json` gives it.
+    pub end_pose: crate::artifacts::PoseJson,
+    /// The truth model's figures of the flight (as runs.csv's row of the sample).
+    pub figures: Figures,
+    /// The loop's figures.
+    pub loop_figures: LoopFigures,
+    /// The fault that sent the loop to its safe state (the core's `Fault`, debug text), or
+    /// null.
+    pub fault: Option<String>,
+    /// Angular momentum of the flight at `t = 0` (kg m²/s, inertial frame): zero unless the
+    /// draw gives the base an initial rate.
+    pub initial_momentum: [f64; 3],
+    /// Control cycles flown (rows of cycles.csv).
+    pub cycles: usize,
+}
+
+/// The `kind` of a [`FlightSummary`].
+pub const FLIGHT_KIND: &str = "closed_loop_sample";
+
 /// Per-cycle trace of a flight, for `fly`-style plots (one entry per control cycle).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Trace {
@@ -106,19 +139,23 @@ impl Trace {
         out
     }
 
-    /// The flown joint path as `trajectory.csv` text (`t,q1..qN`, s and rad, each number
-    /// in its shortest round-trip form): what `scripts/disperse-check.py` re-flies.
+    /// The flown joint path as `trajectory.csv` text (`t,q1..qN,qd1..qdN`, s, rad and
+    /// rad/s, each number in its shortest round-trip form; `qd` the rate flown into each
+    /// sample): what `scripts/disperse-check.py` re-flies and `host-sim view` draws.
     pub fn flown_csv(&self) -> String {
         let n = self.flown_q.first().map_or(0, Vec::len);
         let mut out = String::from("t");
         for j in 1..=n {
             out.push_str(&format!(",q{j}"));
         }
+        for j in 1..=n {
+            out.push_str(&format!(",qd{j}"));
+        }
         out.push('\n');
         let mut b = ryu::Buffer::new();
-        for (t, q) in self.flown_t.iter().zip(&self.flown_q) {
+        for ((t, q), qd) in self.flown_t.iter().zip(&self.flown_q).zip(&self.flown_qd) {
             out.push_str(b.format(*t));
-            for v in q {
+            for v in q.iter().chain(qd) {
                 out.push(',');
                 out.push_str(b.format(*v));
             }

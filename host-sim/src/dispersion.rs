@@ -193,10 +193,19 @@ impl Draw {
         if self.base_rate == [0.0; 3] {
             return state;
         }
+        state.with_momentum(self.initial_momentum(task))
+    }
+
+    /// The angular momentum (kg m²/s) of the drawn initial base rate on `task` (the
+    /// dispersed robot), `L = H~b(q₀) ω(0)`: zero without a base rate.
+    pub fn initial_momentum<const N: usize, const K: usize>(&self, task: &Task<N, K>) -> [f64; 3] {
+        if self.base_rate == [0.0; 3] {
+            return [0.0; 3];
+        }
         let hb = Momentum::new(task.robot(), &Frames::new(task.robot(), task.start())).hb;
         let w = self.base_rate;
         let l = hb.mul_vec(&nalgebra::Vector3::new(w[0], w[1], w[2]));
-        state.with_momentum([l.x, l.y, l.z])
+        [l.x, l.y, l.z]
     }
 
     /// The nominal parameters of `chain` (every σ = 0).

@@ -88,6 +88,32 @@ pub struct ViewData {
     /// A two-phase plan: the time phase 1 (attitude controlled) ends and phase 2 (free
     /// floating) begins (s); `None` for one phase.
     pub phase1_end_s: Option<f64>,
+    /// A closed-loop flight (`disperse --closed-loop --export-sample K --out DIR`): the
+    /// loop's per-cycle estimate beside the truth; `None` for a plan or rollout.
+    pub closed_loop: Option<LoopView>,
+}
+
+/// What the page shows of a closed-loop flight, per control cycle (cycles.csv).
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopView {
+    /// The run's seed and the sample.
+    pub seed: u64,
+    /// The sample (0-based).
+    pub sample: u64,
+    /// Time of each cycle's measurement (s).
+    pub t: Vec<f64>,
+    /// The loop's estimate of the base rotation at each cycle (deg).
+    pub estimate_deg: Vec<f64>,
+    /// The true base rotation at each cycle (deg).
+    pub truth_deg: Vec<f64>,
+    /// The fault that sent the loop to its safe state, or `None`.
+    pub fault: Option<String>,
+    /// Extra time beyond t_f (s).
+    pub extra_time_s: f64,
+    /// End-effector position error at the end of the flight (m, truth model).
+    pub position_error_m: f64,
+    /// End-effector orientation error at the end of the flight (deg, truth model).
+    pub orientation_error_deg: f64,
 }
 
 /// A position and an attitude.
@@ -163,25 +189,102 @@ pub fn data_of_dir(dir: &Path, shown: &Path) -> Result<ViewData, CliError> {
         return data_of_two_phase(dir, shown);
     }
     let lt = read_bundle(dir)?;
-    let summary: EndPoseOf = serde_json::from_str(&read_output_file(dir, "summary.json")?)
-        .or_input(|| format!("{}: summary.json", dir.display()))?;
+    let text = read_output_file(dir, "summary.json")?;
+    let summary: EndPoseOf =
+        serde_json::from_str(&text).or_input(|| format!("{}: summary.json", dir.display()))?;
     let csv = read_output_file(dir, "trajectory.csv")?;
-    with_dims!(
+    let mut momentum = [0.0; 3];
+    let flight = if summary.kind.as_deref() == Some(crate::closed_loop::FLIGHT_KIND) {
+        let f: crate::closed_loop::FlightSummary = serde_json::from_str(&text)
+            .or_input(|| format!("{}: summary.json of a closed-loop flight", dir.display()))?;
+        momentum = f.initial_momentum;
+        Some(loop_view(dir, &f)?)
+    } else {
+        None
+    };
+    let mut data = with_dims!(
         lt.chain.dof(),
         data_n,
         &lt,
         dir,
         shown,
         &summary.end_pose.position,
-        &csv
-    )
+        &csv,
+        momentum
+    )?;
+    if let Some(v) = flight {
+        data.stamp = format!(
+            "{} · closed loop · sample {} of seed {}",
+            data.stamp, v.sample, v.seed
+        );
+        data.closed_loop = Some(v);
+    }
+    Ok(data)
 }
 
-/// The end pose of a `summary.json`: a plan's or rollout's ([`crate::artifacts::Summary`])
-/// or a re-timed bundle's ([`crate::retiming::RetimeSummary`]); the rest is not read.
+/// The per-cycle estimate and truth of an exported closed-loop flight (cycles.csv: `t_s`,
+/// …, `theta_deg`, `estimate_deg`, …).
+fn loop_view(dir: &Path, f: &crate::closed_loop::FlightSummary) -> Result<LoopView, CliError> {
+    let text = read_output_file(dir, "cycles.csv")?;
+    let err = |m: String| CliError::input(format!("{}: cycles.csv: {m}", dir.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines
+        .next()
+        .ok_or_else(|| err("empty file".into()))?
+        .split(',')
+        .collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| err(format!("no column {name}")))
+    };
+    let (ct, ctruth, cest) = (col("t_s")?, col("theta_deg")?, col("estimate_deg")?);
+    let mut v = LoopView {
+        seed: f.seed,
+        sample: f.sample,
+        t: Vec::new(),
+        estimate_deg: Vec::new(),
+        truth_deg: Vec::new(),
+        fault: f.fault.clone(),
+        extra_time_s: f.loop_figures.extra_time_s,
+        position_error_m: f.figures.position_error_m,
+        orientation_error_deg: f.figures.orientation_error_deg,
+    };
+    for (row, line) in lines.enumerate() {
+        let cells: Vec<f64> = line
+            .split(',')
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .map_err(|e| err(format!("row {}: {e}", row + 1)))?;
+        let get = |c: usize| {
+            cells
+                .get(c)
+                .copied()
+                .ok_or_else(|| err(format!("row {}: too few values", row + 1)))
+        };
+        v.t.push(get(ct)?);
+        v.truth_deg.push(get(ctruth)?);
+        v.estimate_deg.push(get(cest)?);
+    }
+    if v.t.len() != f.cycles {
+        return Err(err(format!(
+            "{} rows, summary.json says {} cycles (files from different runs?)",
+            v.t.len(),
+            f.cycles
+        )));
+    }
+    Ok(v)
+}
+
+/// The end pose of a `summary.json`: a plan's or rollout's ([`crate::artifacts::Summary`]),
+/// a re-timed bundle's ([`crate::retiming::RetimeSummary`]) or a closed-loop flight's
+/// ([`crate::closed_loop::FlightSummary`], told by its `kind`); the rest is not read here.
 #[derive(serde::Deserialize)]
 struct EndPoseOf {
     end_pose: PositionOf,
+    #[serde(default)]
+    kind: Option<String>,
 }
 
 #[derive(serde::Deserialize)]
@@ -228,7 +331,7 @@ fn two_phase_n<const N: usize, const K: usize>(
             dir.display()
         )));
     }
-    build(lt, &task, &phase1, &phase2, &task2, shown)
+    build(lt, &task, &phase1, &phase2, &task2, [0.0; 3], shown)
 }
 
 fn data_n<const N: usize, const K: usize>(
@@ -237,10 +340,11 @@ fn data_n<const N: usize, const K: usize>(
     shown: &Path,
     end: &[f64; 3],
     csv: &str,
+    momentum: [f64; 3],
 ) -> Result<ViewData, CliError> {
     let task: Task<N, K> = lt.task::<N, K>()?;
     let samples = crate::retiming::read_samples::<N>(dir, csv)?;
-    let data = build(lt, &task, &[], &samples, &task, shown)?;
+    let data = build(lt, &task, &[], &samples, &task, momentum, shown)?;
     let last = data.ee.last().copied().unwrap_or([f64::NAN; 3]);
     if &last != end {
         return Err(CliError::input(format!(
@@ -266,14 +370,17 @@ enum Row {
 
 /// The page's data: `held` samples with the base attitude held (phase 1 of a two-phase
 /// plan; none for one phase), then `floating` samples with the base attitude integrated by
-/// the truth model of `floating_task`; all drawn in `task`'s inertial frame (planner model:
-/// base placed by CoM conservation), the floating samples' times after the held ones.
+/// the truth model of `floating_task` from angular momentum `momentum` (kg m²/s; zero but
+/// for a closed-loop flight whose draw gave the base an initial rate); all drawn in `task`'s
+/// inertial frame (planner model: base placed by CoM conservation), the floating samples'
+/// times after the held ones.
 fn build<const N: usize, const K: usize>(
     lt: &LoadedTask,
     task: &Task<N, K>,
     held: &[reactionless::Sample<N>],
     floating: &[reactionless::Sample<N>],
     floating_task: &Task<N, K>,
+    momentum: [f64; 3],
     shown: &Path,
 ) -> Result<ViewData, CliError> {
     if floating.is_empty() {
@@ -284,7 +391,10 @@ fn build<const N: usize, const K: usize>(
     }
     let robot = task.robot();
     let com0 = task.com0();
-    let mut truth = TruthModel::new(floating_task, TRUTH_SUBSTEPS);
+    let mut truth = TruthModel::from_state(
+        floating_task,
+        reactionless::TruthState::new(TRUTH_SUBSTEPS).with_momentum(momentum),
+    );
     let offset = held.last().map_or(0.0, |s| s.t);
     let n = held.len() + floating.len();
     let (mut t, mut q, mut qd) = (
@@ -390,6 +500,7 @@ fn build<const N: usize, const K: usize>(
         base_disturbance_deg: max_deg,
         base_limit_deg: lt.max_base_disturbance_deg(),
         phase1_end_s: (!held.is_empty()).then_some(offset),
+        closed_loop: None,
     })
 }
 

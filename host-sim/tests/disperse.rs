@@ -221,11 +221,17 @@ fn a_closed_loop_sample_exports_its_flight() {
         ]
         .concat(),
     ));
-    for f in ["robot.urdf", "task.toml", "joints.png", "base_attitude.svg"] {
+    for f in [
+        "robot.urdf",
+        "task.toml",
+        "joints.png",
+        "base_attitude.svg",
+        "summary.json",
+    ] {
         assert!(out.join(f).is_file(), "{f}");
     }
     let path = read(&out.join("trajectory.csv"));
-    assert!(path.starts_with("t,q1,q2,q3,q4,q5,q6,q7\n"));
+    assert!(path.starts_with("t,q1,q2,q3,q4,q5,q6,q7,qd1,qd2,qd3,qd4,qd5,qd6,qd7\n"));
     assert_eq!(path.lines().count(), 1 + 3301);
     assert!(
         path.lines().last().unwrap().starts_with("33.0"),

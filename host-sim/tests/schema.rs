@@ -38,6 +38,10 @@ fn schemas() -> Vec<(&'static str, Value)> {
             v(schema_for!(host_sim::dispersion_report::Report)),
         ),
         ("manifest", v(schema_for!(host_sim::shards::Manifest))),
+        (
+            "flight",
+            v(schema_for!(host_sim::closed_loop::FlightSummary)),
+        ),
     ]
 }
 
@@ -160,4 +164,19 @@ fn every_output_validates_against_its_schema() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     valid("disperse", &json_of(&disp.join("summary.json")));
     valid("manifest", &json_of(&disp.join("manifest.json")));
+    // An exported closed-loop flight, its base given an initial rate.
+    let flight = tmp.path().join("flight");
+    let r = host_sim()
+        .arg("disperse")
+        .arg(tmp.path().join("plan0"))
+        .args(["--seed", "1", "--mass-rel-sigma", "0.05"])
+        .args(["--base-rate-sigma-deg-s", "0.001", "--closed-loop"])
+        .args(["--export-sample", "1", "--out"])
+        .arg(&flight)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let f = json_of(&flight.join("summary.json"));
+    valid("flight", &f);
+    assert!(f["initial_momentum"][0].as_f64().unwrap() != 0.0);
 }

@@ -272,3 +272,109 @@ fn view_refuses_inconsistent_or_missing_inputs() {
     assert!(err.contains("summary.json"), "{err}");
     assert!(!page.exists());
 }
+
+/// `view` of an exported closed-loop flight (`disperse --closed-loop --export-sample K
+/// --out DIR`, here with an initial base rate) draws the flown path on the dispersed robot:
+/// every flown sample as written,
+/// the end at the flight's `summary.json` end pose, the truth model's base angle peaking
+/// at the flight's base disturbance bit for bit, and the loop's estimate per control cycle
+/// as cycles.csv gives it; the page stays self-contained. A cycles.csv of another length is
+/// refused.
+/// Verifies RL-SIM-VIEW-006.
+#[test]
+fn a_closed_loop_flight_is_drawn_with_the_loops_estimate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("plan");
+    rollout(&root().join("spec/tasks/paper.toml"), ETA_HAT, &plan);
+    let flight = tmp.path().join("f2");
+    let o = host_sim()
+        .arg("disperse")
+        .arg(&plan)
+        .args([
+            "--seed",
+            "1",
+            "--mass-rel-sigma",
+            "0.05",
+            "--inertia-rel-sigma",
+            "0.1",
+        ])
+        .args([
+            "--com-sigma-m",
+            "0.01",
+            "--closed-loop",
+            "--export-sample",
+            "2",
+            "--out",
+        ])
+        .arg(&flight)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let page_path = tmp.path().join("f2.html");
+    let o = host_sim()
+        .arg("view")
+        .arg(&flight)
+        .arg("--out")
+        .arg(&page_path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let page = std::fs::read_to_string(&page_path).unwrap();
+    assert!(external_references(&page).is_empty());
+    let d = embedded(&page);
+    let summary = json(&flight.join("summary.json"));
+    assert_eq!(summary["kind"], "closed_loop_sample");
+    // Every flown sample, t_f plus the 3 s the loop goes on.
+    let csv = std::fs::read_to_string(flight.join("trajectory.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    let t = f64s(&d["t"]);
+    assert_eq!(t.len(), rows.len());
+    assert_eq!(t.len(), 3301);
+    let last: Vec<f64> = rows[rows.len() - 1]
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(f64s(&d["q"][rows.len() - 1]), last[1..8].to_vec());
+    let ee = f64s(&d["ee"][rows.len() - 1]);
+    assert_eq!(ee, f64s(&summary["end_pose"]["position"]));
+    let angles = f64s(&d["base_angle_deg"]);
+    let max = angles.iter().copied().fold(0.0, f64::max);
+    assert_eq!(
+        max,
+        summary["figures"]["base_disturbance_deg"].as_f64().unwrap()
+    );
+    assert_eq!(
+        d["base_disturbance_deg"],
+        summary["figures"]["base_disturbance_deg"]
+    );
+    // The loop's estimate per cycle, as cycles.csv writes it.
+    let l = &d["closed_loop"];
+    assert_eq!(
+        (l["seed"].as_u64(), l["sample"].as_u64()),
+        (Some(1), Some(2))
+    );
+    let cycles = std::fs::read_to_string(flight.join("cycles.csv")).unwrap();
+    let est: Vec<f64> = cycles
+        .lines()
+        .skip(1)
+        .map(|r| r.split(',').nth(8).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(est.len(), 330);
+    assert_eq!(f64s(&l["estimate_deg"]), est);
+    assert!(l["fault"].is_null());
+    assert!(d["stamp"].as_str().unwrap().contains("closed loop"));
+
+    // A cycles.csv cut short is not this flight's.
+    let cut: Vec<&str> = cycles.lines().take(100).collect();
+    std::fs::write(flight.join("cycles.csv"), cut.join("\n") + "\n").unwrap();
+    let o = host_sim()
+        .arg("view")
+        .arg(&flight)
+        .arg("--out")
+        .arg(tmp.path().join("bad.html"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cycles.csv"));
+    assert!(!tmp.path().join("bad.html").exists());
+}

@@ -293,9 +293,11 @@ fn export<const N: usize, const K: usize>(
 }
 
 /// Sample `sample`'s closed-loop flight as a directory: the dispersed robot (robot.urdf),
-/// the flown joint path (trajectory.csv: `t,q1..qN`) and the task (task.toml), which
-/// `scripts/disperse-check.py --dir OUT --urdf OUT/robot.urdf --runs RUNS --sample K`
-/// re-flies with Pinocchio.
+/// the flown joint path (trajectory.csv: `t,q1..qN,qd1..qdN`), the task (task.toml), the
+/// per-cycle trace (cycles.csv) and the flight's summary.json
+/// ([`closed_loop::FlightSummary`]); `scripts/disperse-check.py --dir OUT --urdf
+/// OUT/robot.urdf --runs RUNS --sample K` re-flies it with Pinocchio and `host-sim view
+/// OUT` draws it.
 #[allow(clippy::too_many_arguments)]
 fn export_flight<const N: usize, const K: usize>(
     lt: &LoadedTask,
@@ -323,11 +325,36 @@ fn export_flight<const N: usize, const K: usize>(
         sample,
         Some(&mut trace),
     )?;
+    let task = dispersed.task::<N, K>()?;
+    let last: [f64; N] = trace
+        .flown_q
+        .last()
+        .map(|q| core::array::from_fn(|i| q[i]))
+        .ok_or_else(|| CliError::internal("the flight has no samples"))?;
+    let end = task.end_pose(&last, reactionless::kinematics::IDENTITY_WXYZ);
+    let summary = closed_loop::FlightSummary {
+        kind: closed_loop::FLIGHT_KIND.into(),
+        seed,
+        sample,
+        end_pose: crate::artifacts::PoseJson {
+            position: end.position,
+            quat_wxyz: end.quat_wxyz,
+        },
+        figures: flight.figures,
+        loop_figures: flight.loop_figures,
+        fault: flight.fault.map(|f| format!("{f:?}")),
+        initial_momentum: draw.initial_momentum(&task),
+        cycles: trace.t.len(),
+    };
     let dir = OutDir::create(out)?;
     dir.write("robot.urdf", urdf::write(&dispersed.chain).as_bytes())?;
     dir.write("trajectory.csv", trace.flown_csv().as_bytes())?;
     dir.write("task.toml", lt.text.as_bytes())?;
     dir.write("cycles.csv", trace.cycles_csv().as_bytes())?;
+    dir.write(
+        "summary.json",
+        (serde_json::to_string_pretty(&summary).or_internal(|| "summary.json")? + "\n").as_bytes(),
+    )?;
     if plots {
         flight_figures::<N, K>(&dispersed, &trace, seed, sample, &dir)?;
     }

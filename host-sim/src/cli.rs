@@ -3,6 +3,7 @@
 //! `run` arm).
 
 use crate::cmd;
+use crate::error::CliError;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -64,12 +65,38 @@ pub fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => e.exit(),
     };
-    // A bad REACTIONLESS_ISA is bad input, whatever the subcommand.
-    if let Err(e) = reactionless_simd::Isa::from_env() {
-        eprintln!("error: {e}");
-        return ExitCode::from(2);
+    match dispatch(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.code)
+        }
     }
-    let result = match cli.command {
+}
+
+/// Runs one command line given as words (`["host-sim", "disperse", DIR, ...]`) in this
+/// process, as the binary would: the library entry of callers that wrap the CLI (the
+/// Python package's `disperse` and `retime`). A command line clap refuses is bad input,
+/// with clap's message.
+///
+/// # Errors
+/// The subcommand's, or bad input for a command line that does not parse.
+pub fn run_args<I, T>(args: I) -> Result<(), CliError>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let matches = command()
+        .try_get_matches_from(args)
+        .map_err(|e| CliError::input(e.render().to_string().trim_end().to_string()))?;
+    let cli = Cli::from_arg_matches(&matches).map_err(|e| CliError::input(e.to_string()))?;
+    dispatch(cli)
+}
+
+fn dispatch(cli: Cli) -> Result<(), CliError> {
+    // A bad REACTIONLESS_ISA is bad input, whatever the subcommand.
+    reactionless_simd::Isa::from_env().map_err(|e| CliError::input(e.to_string()))?;
+    match cli.command {
         Command::Model(a) => a.run(),
         Command::Rollout(a) => a.run(),
         Command::Plan(a) => a.run(),
@@ -88,13 +115,6 @@ pub fn main() -> ExitCode {
         Command::Completions(a) => a.run(),
         Command::Manpage(a) => a.run(),
         Command::View(a) => a.run(),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(e.code)
-        }
     }
 }
 

@@ -11,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use reactionless::{Event, Plan, Planner, PlannerConfig, Status};
 use reactionless_simd::Threaded;
 use std::io::IsTerminal;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Swarm capacity of the host planner. It does not change results (only the task's count
@@ -138,6 +138,26 @@ impl Progress {
     }
 }
 
+/// Set by [`cancel`]: long runs over many items (`disperse`'s samples) stop at the next
+/// item with an "interrupted" failure. Never set by the CLI (Ctrl-C ends its process); the
+/// Python package sets it on KeyboardInterrupt.
+static CANCELLED: AtomicBool = AtomicBool::new(false);
+
+/// Asks the runs in progress to stop at their next item ([`cancelled`]).
+pub fn cancel() {
+    CANCELLED.store(true, Ordering::SeqCst);
+}
+
+/// Clears [`cancel`] (before a new run).
+pub fn reset_cancel() {
+    CANCELLED.store(false, Ordering::SeqCst);
+}
+
+/// Whether [`cancel`] was called since the last [`reset_cancel`].
+pub fn cancelled() -> bool {
+    CANCELLED.load(Ordering::SeqCst)
+}
+
 /// Plans `lt` with `config` to the end; shows a progress bar on a terminal if `progress`.
 ///
 /// # Errors
@@ -146,6 +166,21 @@ pub fn plan<const N: usize, const K: usize>(
     lt: &LoadedTask,
     config: PlannerConfig,
     progress: bool,
+) -> Result<Planned<N, K>, CliError> {
+    plan_with(lt, config, progress, &mut || Ok(()))
+}
+
+/// [`plan`], calling `between` after every slice of integration steps: an error
+/// from it stops planning and is returned (the Python binding's Ctrl-C). The plan does not
+/// depend on `between` (slices of any size give the same bits).
+///
+/// # Errors
+/// As [`plan`], and `between`'s.
+pub fn plan_with<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    config: PlannerConfig,
+    progress: bool,
+    between: &mut dyn FnMut() -> Result<(), CliError>,
 ) -> Result<Planned<N, K>, CliError> {
     let task = lt.task::<N, K>()?;
     let mut planner: Box<HostPlanner<N, K>> =
@@ -174,6 +209,10 @@ pub fn plan<const N: usize, const K: usize>(
             Status::Running(r) => {
                 bar.set_position(u64::from(r.rollouts));
                 bar.set_message(format!("best f {:.3e} ({:?})", r.best.f, r.stage));
+                if let Err(e) = between() {
+                    bar.finish_and_clear();
+                    return Err(e);
+                }
             }
             Status::Finished(plan) => break plan,
         }

@@ -473,6 +473,9 @@ fn disperse<const N: usize, const K: usize>(run: &Run<'_>) -> Result<(), CliErro
                 message: format!("sample {sample}: {}", e.message),
                 ..e
             };
+            if drive::cancelled() {
+                return Err(CliError::failed("interrupted"));
+            }
             let r = Draw::sample(&lt.chain, &run.settings, run.seed, sample).and_then(|draw| {
                 let (figures, loop_figures) = match &loop_setup {
                     Some((config, sensors, _)) => {

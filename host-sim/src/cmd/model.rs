@@ -95,15 +95,30 @@ fn report<const N: usize, const K: usize>(
     for (o, v) in q.iter_mut().zip(q_deg) {
         *o = v.to_radians();
     }
-    let frames = Frames::new(&robot, &q);
-    let m = Momentum::new(&robot, &frames);
+    report_at::<N, K>(chain, &robot, &q, q_deg.to_vec())
+}
+
+/// The model report of `robot` (read from `chain`) at `q` (rad; `q_deg` is what the
+/// report echoes): the same numbers `host-sim model` prints (the Python binding's
+/// `model()`).
+///
+/// # Errors
+/// Bad input when there is no reaction null-space basis at `q`, or no generalized Jacobian.
+pub fn report_at<const N: usize, const K: usize>(
+    chain: &Chain,
+    robot: &reactionless::Robot<N>,
+    q: &[f64; N],
+    q_deg: Vec<f64>,
+) -> Result<ModelReport, CliError> {
+    let frames = Frames::new(robot, q);
+    let m = Momentum::new(robot, &frames);
     let basis = Basis::<N, K>::initial(&m.hbm).map_err(|cause| {
         CliError::input(format!(
             "--q-deg {q_deg:?}: no reaction null-space basis at this configuration ({})",
             reactionless::Error::RankLoss { step: 0, cause }
         ))
     })?;
-    let jg = generalized_jacobian(&robot, &frames).or_input(|| "generalized Jacobian")?;
+    let jg = generalized_jacobian(robot, &frames).or_input(|| "generalized Jacobian")?;
     let hbm = SMatrix::<f64, 3, N>::from_columns(&m.hbm);
     // σ_i(H~bm) = √λ_i(H~bm H~bmᵀ): a 3×3 symmetric eigenproblem (host-side reporting).
     let gram = hbm * hbm.transpose();
@@ -126,7 +141,7 @@ fn report<const N: usize, const K: usize>(
     Ok(ModelReport {
         robot: chain.name.clone(),
         joints: chain.joint_names.clone(),
-        q_deg: q_deg.to_vec(),
+        q_deg,
         com: [frames.com.x, frames.com.y, frames.com.z],
         hb: rows(&m.hb.to_matrix()),
         hbm: rows(&hbm),

@@ -11,7 +11,9 @@
  * in the last wakeup (one period of latency, as the loop assumes), reads the sensors,
  * computes the next command, and streams the period's setpoints of the plan as the
  * reference. A sensor fault is an error event once; the loop then brings the arm to rest
- * within its acceleration limit and the app stays in its safe state. */
+ * within its acceleration limit and the app stays in its safe state. Not handled here: a
+ * processor reset during the flight (the joint controller must stop the joints on a reset;
+ * the app then plans afresh). */
 #include "rl_app.h"
 
 #include <string.h>
@@ -106,7 +108,7 @@ static void plan_frame(void) {
     }
     App.hk.state = RL_APP_FLYING;
     stream_frame();
-    if (App.hk.state == RL_APP_FLYING) fly_cycle();
+    fly_cycle();
 }
 
 /* The period's setpoints of the plan, the joint controller's reference (the first, t = 0,
@@ -123,7 +125,12 @@ static void stream_frame(void) {
             return;
         }
         if (s != RL_OK) {
-            fail("streaming setpoints", s);
+            /* The reference is telemetry: losing it must not stop the flight, whose loop
+             * keeps commanding (its own rollout reports a failure as RL_FAULT_MODEL and
+             * brings the arm to rest). */
+            App.hk.errors++;
+            App.svc.event(RL_APP_EID_ERROR, "ERROR", "setpoint stream lost", s);
+            App.streaming = 0;
             return;
         }
         App.svc.setpoint(&sp);
@@ -147,7 +154,7 @@ static void fly_cycle(void) {
                           (int32_t)App.hk.commands);
             App.hk.state = RL_APP_IDLE;
         } else {
-            App.svc.event(RL_APP_EID_FAULT, "ERROR", "arm at rest in the safe state",
+            App.svc.event(RL_APP_EID_SAFE, "INFO", "arm at rest in the safe state",
                           (int32_t)App.pending.fault);
             App.hk.state = RL_APP_SAFE;
         }
@@ -157,7 +164,10 @@ static void fly_cycle(void) {
     s = rl_loop_step(&App.flight, &App.planner, &m, &App.pending);
     App.hk.last_status = s;
     if (s != RL_OK && s != RL_DONE) {
-        /* A misuse of the ABI, not a sensor fault: nothing valid to command. */
+        /* A misuse of the ABI (a bug), not a sensor fault: no valid command exists, so the
+         * joints are told to stop now rather than hold their last rate. */
+        static const rl_loop_command halt;
+        App.svc.command(&halt);
         fail("closed-loop step", s);
         return;
     }
@@ -181,7 +191,7 @@ void RL_App_Wakeup(void) {
         break;
     case RL_APP_FLYING:
         stream_frame();
-        if (App.hk.state == RL_APP_FLYING) fly_cycle();
+        fly_cycle();
         break;
     default:
         break;

@@ -52,6 +52,7 @@ enum {
     RL_APP_EID_STREAMED = 5,
     RL_APP_EID_FLOWN = 6,
     RL_APP_EID_DEGRADED = 7,
+    RL_APP_EID_SAFE = 8,
     RL_APP_EID_ERROR = 10,
     RL_APP_EID_FAULT = 11,
 };

@@ -766,9 +766,9 @@ typedef struct rl_two_phase_plan {
 #define RL_E_PHASE -25
 
 /*
- [`rl_loop_config`] holds a value the loop refuses (a setting not finite, out of its
+ [`rl_loop_config`] holds a value the loop refuses: a setting not finite or out of its
  range, an unstable gain `k T_c ≥ 1`, or a control period that is not a whole number of
- the plan's `dt`).
+ the plan's `dt` or does not divide its `t_f`.
  */
 #define RL_E_LOOP_SETTING -26
 
@@ -906,7 +906,8 @@ rl_status rl_loop_config_default(struct rl_loop_config *out);
  `[0, T_c)`). `config` NULL takes the defaults. `abi_version` and `size` are the
  caller's `RL_ABI_VERSION` and `sizeof(rl_loop)` (`RL_E_ABI_VERSION`, `RL_E_SIZE`).
  A planner without a task is `RL_E_NO_TASK`, one without a finished plan
- `RL_E_NO_PLAN`; a setting the loop refuses is `RL_E_LOOP_SETTING`, a plan whose rollout
+ `RL_E_NO_PLAN`; a setting the loop refuses (also a period that does not divide the
+ plan's `t_f` or is not a whole number of its `dt`) is `RL_E_LOOP_SETTING`, a plan whose rollout
  fails `RL_E_STREAM`. On an error `l` is left as it was.
 
  # Safety
@@ -931,8 +932,9 @@ rl_status rl_loop_init(struct rl_loop *l,
  executor cycle and `T_c / dt` steps of the plan's rollout.
 
  # Safety
- `l` NULL or a loop initialised by `rl_loop_init`; `p` NULL or an initialised planner;
- `m` NULL or readable; `out` NULL or writable; none accessed elsewhere during the call.
+ `l` NULL, or zero-filled storage of `sizeof(rl_loop)` bytes (`RL_E_UNINITIALIZED`), or
+ a loop initialised by `rl_loop_init`; `p` NULL or an initialised planner; `m` NULL or
+ readable; `out` NULL or writable; none accessed elsewhere during the call.
  */
 rl_status rl_loop_step(struct rl_loop *l,
                        const struct rl_planner *p,

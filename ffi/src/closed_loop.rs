@@ -36,9 +36,9 @@ pub type FlightLoop = PlanLoop<7, 4>;
 /// headroom so that a small growth of the core keeps the ABI.
 pub const RL_LOOP_WORDS: usize = 384;
 
-/// [`rl_loop_config`] holds a value the loop refuses (a setting not finite, out of its
+/// [`rl_loop_config`] holds a value the loop refuses: a setting not finite or out of its
 /// range, an unstable gain `k T_c ≥ 1`, or a control period that is not a whole number of
-/// the plan's `dt`).
+/// the plan's `dt` or does not divide its `t_f`.
 pub const RL_E_LOOP_SETTING: rl_status = -26;
 
 /// `rl_measurement.valid`: the star tracker's quaternion is present.
@@ -379,7 +379,8 @@ pub unsafe extern "C" fn rl_loop_config_default(out: *mut rl_loop_config) -> rl_
 /// `[0, T_c)`). `config` NULL takes the defaults. `abi_version` and `size` are the
 /// caller's `RL_ABI_VERSION` and `sizeof(rl_loop)` (`RL_E_ABI_VERSION`, `RL_E_SIZE`).
 /// A planner without a task is `RL_E_NO_TASK`, one without a finished plan
-/// `RL_E_NO_PLAN`; a setting the loop refuses is `RL_E_LOOP_SETTING`, a plan whose rollout
+/// `RL_E_NO_PLAN`; a setting the loop refuses (also a period that does not divide the
+/// plan's `t_f` or is not a whole number of its `dt`) is `RL_E_LOOP_SETTING`, a plan whose rollout
 /// fails `RL_E_STREAM`. On an error `l` is left as it was.
 ///
 /// # Safety
@@ -474,8 +475,9 @@ fn init_error(e: Error) -> rl_status {
 /// executor cycle and `T_c / dt` steps of the plan's rollout.
 ///
 /// # Safety
-/// `l` NULL or a loop initialised by `rl_loop_init`; `p` NULL or an initialised planner;
-/// `m` NULL or readable; `out` NULL or writable; none accessed elsewhere during the call.
+/// `l` NULL, or zero-filled storage of `sizeof(rl_loop)` bytes (`RL_E_UNINITIALIZED`), or
+/// a loop initialised by `rl_loop_init`; `p` NULL or an initialised planner; `m` NULL or
+/// readable; `out` NULL or writable; none accessed elsewhere during the call.
 #[allow(unsafe_code)]
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn rl_loop_step(

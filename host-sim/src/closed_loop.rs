@@ -103,7 +103,8 @@ pub struct Trace {
     pub flown_t: Vec<f64>,
     /// The flown joint path: configurations (rad).
     pub flown_q: Vec<Vec<f64>>,
-    /// The joint rates flown into each sample (rad/s; zero at the first).
+    /// The joint rates flown from each sample to the next, over `[t_s, t_{s+1})` (rad/s;
+    /// zero at the last), as a rollout's samples hold them.
     pub flown_qd: Vec<Vec<f64>>,
     /// The truth model's base attitude at each sample (`[w, x, y, z]`).
     pub flown_base: Vec<[f64; 4]>,
@@ -140,8 +141,9 @@ impl Trace {
     }
 
     /// The flown joint path as `trajectory.csv` text (`t,q1..qN,qd1..qdN`, s, rad and
-    /// rad/s, each number in its shortest round-trip form; `qd` the rate flown into each
-    /// sample): what `scripts/disperse-check.py` re-flies and `host-sim view` draws.
+    /// rad/s, each number in its shortest round-trip form; `qd` the rate flown from each
+    /// sample to the next, zero at the last, as a plan's trajectory.csv): what
+    /// `scripts/disperse-check.py` re-flies and `host-sim view` draws.
     pub fn flown_csv(&self) -> String {
         let n = self.flown_q.first().map_or(0, Vec::len);
         let mut out = String::from("t");
@@ -276,9 +278,13 @@ pub fn fly<const N: usize, const K: usize>(
                 t += dt;
                 truth.push(&q, t);
                 if let Some(tr) = trace.as_deref_mut() {
+                    // The rate just flown is the previous sample's, over [t_prev, t).
+                    if let Some(last) = tr.flown_qd.last_mut() {
+                        last.copy_from_slice(&rate);
+                    }
                     tr.flown_t.push(t);
                     tr.flown_q.push(q.to_vec());
-                    tr.flown_qd.push(rate.to_vec());
+                    tr.flown_qd.push(vec![0.0; N]);
                     tr.flown_base.push(truth.attitude());
                 }
             }

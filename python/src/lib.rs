@@ -14,6 +14,9 @@
 
 use host_sim::error::{CliError, EXIT_BAD_INPUT, EXIT_FAILED};
 use pyo3::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::Duration;
 
 pub mod checking;
 pub mod model;
@@ -24,10 +27,12 @@ pub mod task;
 
 /// The Python exception for a host-sim error: `InputError` (a `ValueError`) for bad input
 /// (the CLI's exit code 2), `PlanningError` (a `RuntimeError`) for a result that does not
-/// pass or a failed computation (exit code 1), `ReactionlessError` otherwise. The message
-/// is the CLI's, naming the key or argument.
+/// pass or a failed computation (exit code 1), `ReactionlessError` for a broken invariant
+/// (`CliError::internal`, a bug: not the caller's input) and anything else. The message is
+/// the CLI's, naming the key or argument.
 pub fn to_py(py: Python<'_>, e: &CliError) -> PyErr {
     let class = match e.code {
+        _ if e.message.starts_with("internal error:") => "ReactionlessError",
         EXIT_BAD_INPUT => "InputError",
         EXIT_FAILED => "PlanningError",
         _ => "ReactionlessError",
@@ -40,6 +45,49 @@ pub fn to_py(py: Python<'_>, e: &CliError) -> PyErr {
         Ok(obj) => PyErr::from_value(obj),
         Err(err) => err,
     }
+}
+
+/// Runs `work` with the GIL released on a worker thread while the calling thread checks
+/// for signals every 50 ms (Python handles them on the main thread only, so the check must
+/// stay on the caller's). On one (Ctrl-C's `KeyboardInterrupt`), it sets the flag `work`
+/// is given and calls `on_interrupt`, waits for `work` to return, and raises the signal's
+/// exception; otherwise it returns what `work` returned.
+pub fn interruptibly<T: Send>(
+    py: Python<'_>,
+    on_interrupt: impl Fn() + Send + Sync,
+    work: impl FnOnce(&AtomicBool) -> Result<T, CliError> + Send,
+) -> PyResult<T> {
+    let stop = AtomicBool::new(false);
+    let mut interrupt: Option<PyErr> = None;
+    let slot = &mut interrupt;
+    let result = py.detach(|| {
+        std::thread::scope(|scope| {
+            let (tx, rx) = mpsc::channel::<()>();
+            let stop = &stop;
+            let worker = scope.spawn(move || {
+                let r = work(stop);
+                drop(tx);
+                r
+            });
+            // Until the worker says it is done (it drops its sender, or panics).
+            while let Err(mpsc::RecvTimeoutError::Timeout) =
+                rx.recv_timeout(Duration::from_millis(50))
+            {
+                if let Err(e) = Python::attach(|py| py.check_signals()) {
+                    *slot = Some(e);
+                    stop.store(true, Ordering::SeqCst);
+                    on_interrupt();
+                }
+            }
+            worker
+                .join()
+                .unwrap_or_else(|_| Err(CliError::internal("the run panicked")))
+        })
+    });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    result.map_err(|e| to_py(py, &e))
 }
 
 /// A bad argument of a Python call: `InputError` with `message`.

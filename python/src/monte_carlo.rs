@@ -4,8 +4,10 @@
 //! Nothing is written where the caller looks: an interrupted or failed run leaves nothing.
 //!
 //! Ctrl-C: the subcommand runs on a worker thread while the calling thread, the GIL
-//! released, checks for signals every 50 ms; on KeyboardInterrupt it asks the run to stop
-//! (`drive::cancel`: `disperse` stops at its next sample), waits for it, and raises.
+//! released, checks for signals every 50 ms ([`crate::interruptibly`]); on
+//! KeyboardInterrupt it asks the run to stop (`drive::cancel`: `disperse` stops at its
+//! next sample), waits for it, and raises. The cancel flag is the process's, so in-process
+//! runs take turns ([`RUN_LOCK`]).
 
 use crate::planning::Plan;
 use host_sim::drive;
@@ -14,39 +16,40 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
-use std::time::Duration;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// One in-process CLI run at a time: `drive::cancel` is the process's, so runs from
+/// several Python threads take turns (each already uses every core).
+static RUN_LOCK: Mutex<()> = Mutex::new(());
 
 /// Runs `args` (after `host-sim`) in this process, interruptibly (see the module doc).
 fn run_cli(py: Python<'_>, args: Vec<String>) -> PyResult<()> {
-    let (tx, rx) = mpsc::channel();
-    let mut interrupt: Option<PyErr> = None;
-    let slot = &mut interrupt;
-    let result = py.detach(move || {
-        drive::reset_cancel();
-        let worker = std::thread::spawn(move || {
-            let r = host_sim::cli::run_args(std::iter::once("host-sim".to_string()).chain(args));
-            let _ = tx.send(());
-            r
-        });
-        // Until the run says it is done (or its thread is gone).
-        while let Err(mpsc::RecvTimeoutError::Timeout) = rx.recv_timeout(Duration::from_millis(50))
-        {
-            if let Err(e) = Python::attach(|py| py.check_signals()) {
-                *slot = Some(e);
-                drive::cancel();
-            }
+    // Set once this call holds RUN_LOCK: only then may its Ctrl-C cancel the run in flight
+    // (before, the run in flight is another thread's).
+    let holding = AtomicBool::new(false);
+    let holding = &holding;
+    let on_interrupt = move || {
+        if holding.load(Ordering::SeqCst) {
+            drive::cancel();
         }
-        let r = worker
-            .join()
-            .unwrap_or_else(|_| Err(CliError::internal("the run panicked")));
+    };
+    crate::interruptibly(py, on_interrupt, move |stop| {
+        let _turn = RUN_LOCK
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        drive::reset_cancel();
+        holding.store(true, Ordering::SeqCst);
+        // Interrupted while waiting for the turn: do not start.
+        let r = if stop.load(Ordering::SeqCst) {
+            Err(CliError::failed("interrupted"))
+        } else {
+            host_sim::cli::run_args(std::iter::once("host-sim".to_string()).chain(args))
+        };
+        holding.store(false, Ordering::SeqCst);
         drive::reset_cancel();
         r
-    });
-    if let Some(e) = interrupt {
-        return Err(e);
-    }
-    result.map_err(|e| crate::to_py(py, &e))
+    })
 }
 
 /// The directory a `Plan` or a path names: a path as is, a `Plan` written into `tmp`.

@@ -18,6 +18,7 @@ use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use reactionless::{PlannerConfig, Rollout, eta_flat};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 
 /// The samples of a rollout and what the core and the truth model made of them.
 #[pyclass(frozen, module = "reactionless")]
@@ -327,8 +328,8 @@ fn plan_n<const N: usize, const K: usize>(
 /// (the CLI's `--paper`, as `host-sim record` plans). `threads` sets the planner's own
 /// worker threads (default: rayon's shared pool, every core); one per plan lets plans in
 /// several Python threads run side by side. The bits do not depend on it. Releases the GIL
-/// while planning; Ctrl-C raises `KeyboardInterrupt`. A plan that does not converge is
-/// returned (see `Plan.status`), not raised.
+/// while planning; Ctrl-C raises `KeyboardInterrupt` (the planner stops after its current
+/// slice). A plan that does not converge is returned (see `Plan.status`), not raised.
 #[pyfunction]
 #[pyo3(signature = (task, seed = None, strategy = None, refine_tolerance = None, max_rollouts = None, refine_against = None, paper = false, threads = None))]
 #[allow(clippy::too_many_arguments)]
@@ -372,30 +373,29 @@ pub fn plan(
         ),
     };
     let lt = &task.lt;
-    let mut interrupt: Option<PyErr> = None;
-    let slot = &mut interrupt;
-    let result = py.detach(move || {
-        let mut between = || -> Result<(), CliError> {
-            Python::attach(|py| py.check_signals()).map_err(|e| {
-                *slot = Some(e);
-                CliError::failed("interrupted")
-            })
-        };
-        let mut run = || {
-            let start = std::time::Instant::now();
-            let mut p = with_dims!(lt.chain.dof(), plan_n, lt, asked, &mut between)?;
-            p.rust_seconds = start.elapsed().as_secs_f64();
-            Ok(p)
-        };
-        match &pool {
-            Some(p) => p.install(run),
-            None => run(),
-        }
-    });
-    if let Some(e) = interrupt {
-        return Err(e);
-    }
-    result.map_err(|e| crate::to_py(py, &e))
+    crate::interruptibly(
+        py,
+        || {},
+        |stop| {
+            let mut between = || -> Result<(), CliError> {
+                if stop.load(Ordering::SeqCst) {
+                    Err(CliError::failed("interrupted"))
+                } else {
+                    Ok(())
+                }
+            };
+            let mut run = || {
+                let start = std::time::Instant::now();
+                let mut p = with_dims!(lt.chain.dof(), plan_n, lt, asked, &mut between)?;
+                p.rust_seconds = start.elapsed().as_secs_f64();
+                Ok(p)
+            };
+            match &pool {
+                Some(p) => p.install(run),
+                None => run(),
+            }
+        },
+    )
 }
 
 /// The rollout of `eta` (`2K·segments` values, `a1, b1, …`) on `task`, as `host-sim

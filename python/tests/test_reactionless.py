@@ -149,6 +149,8 @@ def test_each_exception_type_names_what_was_wrong(tmp_path):
     with pytest.raises(rl.InputError) as e:
         rl.Task.from_dict({**tables, "motion": {"tf_s": 30.0, "dt_s": 0.01, "tf": 3}}, robot)
     assert isinstance(e.value, ValueError) and isinstance(e.value, rl.ReactionlessError)
+    # A broken invariant (a bug) is neither the caller's input nor a result: the base class.
+    assert not issubclass(rl.ReactionlessError, ValueError)
     assert "tf" in str(e.value)
     with pytest.raises(rl.InputError, match="strategy"):
         rl.plan(task, strategy="annealing")
@@ -199,20 +201,25 @@ def test_check_gives_the_cli_verdicts(tmp_path):
 _INTERRUPTED = """
 import sys, reactionless as rl
 task = rl.Task.from_toml(sys.argv[1])
+threads = None if sys.argv[2] == "default" else int(sys.argv[2])
 print("planning", flush=True)
-rl.plan(task, seed=1, strategy="cpso", max_rollouts=1_000_000, refine_tolerance=1e-15)
+rl.plan(task, seed=1, strategy="cpso", max_rollouts=1_000_000, refine_tolerance=1e-15,
+        threads=threads)
 print("finished", flush=True)
 """
 
 
-def test_ctrl_c_interrupts_a_plan():
-    """Verifies RL-PY-006: SIGINT during plan() raises KeyboardInterrupt within a slice of planning."""
+@pytest.mark.parametrize("threads", ["default", "1"])
+def test_ctrl_c_interrupts_a_plan(threads):
+    """Verifies RL-PY-006: SIGINT during plan() raises KeyboardInterrupt within a slice of
+    planning, on rayon's shared pool and on a plan's own pool (threads=1)."""
     import signal
     import subprocess
     import sys
 
     proc = subprocess.Popen(
-        [sys.executable, "-c", _INTERRUPTED, str(ROOT / "tests/tasks/a/arm12/task_003.toml")],
+        [sys.executable, "-c", _INTERRUPTED, str(ROOT / "tests/tasks/a/arm12/task_003.toml"),
+         threads],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout.readline().strip() == "planning"
     time.sleep(1.0)

@@ -773,18 +773,22 @@ impl<const N: usize> Executor<N> {
         Ok((rate, limited))
     }
 
-    /// The safe state: each joint's rate toward zero by at most `qdd_max T_c`.
     /// A fault found outside [`Executor::step`] (by [`PlanLoop`]): the cycle is spent as
-    /// `step` spends a faulty one, toward rest.
+    /// `step` spends a faulty one, toward rest; a flight already stopping, stopped or done
+    /// stays so, as in `step`.
     fn fail(&mut self, fault: Fault) -> Command<N> {
         self.cycle = self.cycle.saturating_add(1);
         if let Mode::Stopping(f) | Mode::Stopped(f) = self.mode {
             return self.stop(f, None);
         }
+        if self.mode == Mode::Done {
+            return self.finish();
+        }
         self.mode = Mode::Stopping(fault);
         self.stop(fault, Some(fault))
     }
 
+    /// The safe state: each joint's rate toward zero by at most `qdd_max T_c`.
     fn stop(&mut self, fault: Fault, event: Option<Fault>) -> Command<N> {
         let rate = self.toward_rest();
         self.advance(rate);
@@ -1009,8 +1013,15 @@ impl<const N: usize, const K: usize> PlanLoop<N, K> {
 
     /// One control cycle (see [`Executor::step`]) with the measurements taken at `t_k`;
     /// `task` is the one given to [`PlanLoop::new`]. Never fails: a plan whose rollout
-    /// fails is a [`Fault::Model`] and the arm is brought to rest.
+    /// fails is a [`Fault::Model`] and the arm is brought to rest. Once the flight is
+    /// stopping, stopped or done the plan's rollout no longer advances (a cycle then costs
+    /// the executor alone).
     pub fn step(&mut self, task: &crate::Task<N, K>, m: &Measurement<N>) -> Command<N> {
+        // Stopping, stopped or done, the executor flies no plan: its rollout stays put.
+        if let Mode::Stopping(_) | Mode::Stopped(_) | Mode::Done = self.executor.mode() {
+            let last = self.plan.last;
+            return self.executor.step(task.robot(), m, &last);
+        }
         match self.ahead(task) {
             Ok(ahead) => self.executor.step(task.robot(), m, &ahead),
             Err(e) => self.executor.fail(Fault::Model(e)),

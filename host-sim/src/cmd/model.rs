@@ -114,7 +114,7 @@ pub fn report_at<const N: usize, const K: usize>(
     let m = Momentum::new(robot, &frames);
     let basis = Basis::<N, K>::initial(&m.hbm).map_err(|cause| {
         CliError::input(format!(
-            "--q-deg {q_deg:?}: no reaction null-space basis at this configuration ({})",
+            "configuration {q_deg:?} (deg): no reaction null-space basis there ({})",
             reactionless::Error::RankLoss { step: 0, cause }
         ))
     })?;

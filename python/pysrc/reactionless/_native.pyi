@@ -1,6 +1,7 @@
 """Type stubs of the extension module (units: SI and radians; ``_deg`` names are degrees)."""
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Dict, List, Optional, Union
 
 import numpy as np
@@ -53,7 +54,7 @@ class Task:
     @property
     def toml(self) -> str: ...
     @property
-    def path(self) -> str: ...
+    def path(self) -> Path: ...
     @property
     def robot(self) -> Robot: ...
     @property
@@ -85,13 +86,25 @@ class Trajectory:
     @property
     def qd(self) -> _F64:
         """Joint rates (rad/s), (S+1) x N, constant over each step."""
-    f: float
-    phi: float
-    truth_f: float
-    base_disturbance_deg: float
-    position_error_m: float
-    orientation_error_deg: float
-    trajectory_digest: str
+    @property
+    def f(self) -> float:
+        """f = |e| of the planner-model end pose against the target."""
+    @property
+    def phi(self) -> float:
+        """Constraint violation Phi (rad); 0 when every joint limit holds."""
+    @property
+    def truth_f(self) -> float:
+        """f of the truth-model end pose (base attitude integrated)."""
+    @property
+    def base_disturbance_deg(self) -> float:
+        """Largest base rotation over the motion (deg, truth model)."""
+    @property
+    def position_error_m(self) -> float: ...
+    @property
+    def orientation_error_deg(self) -> float: ...
+    @property
+    def trajectory_digest(self) -> str:
+        """FNV-1a-64 of every sample's bits, as host-sim record's trajectory_digest."""
     @property
     def end_position(self) -> _F64: ...
     @property
@@ -101,17 +114,32 @@ class Trajectory:
 class Plan:
     """A finished plan: eta, how the search ended, and its trajectory."""
 
-    status: str
-    stop: str
-    strategy: str
-    seed: int
-    rollouts: int
-    iterations: int
-    restarts: int
-    stagnation_events: int
-    trajectory: Trajectory
-    wall_time_s: float
-    rust_seconds: float
+    @property
+    def status(self) -> str:
+        """'converged' (what was asked is met) or 'not_converged'."""
+    @property
+    def stop(self) -> str:
+        """How the search stopped: 'converged', 'exhausted' or 'stalled'."""
+    @property
+    def strategy(self) -> str: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def rollouts(self) -> int: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def restarts(self) -> int: ...
+    @property
+    def stagnation_events(self) -> int: ...
+    @property
+    def trajectory(self) -> Trajectory: ...
+    @property
+    def wall_time_s(self) -> float:
+        """Wall time of the search (s)."""
+    @property
+    def rust_seconds(self) -> float:
+        """Wall time of the whole Rust call (s): search and trajectory."""
     @property
     def eta(self) -> _F64: ...
     @property
@@ -128,7 +156,7 @@ class Plan:
     def q(self) -> _F64: ...
     @property
     def qd(self) -> _F64: ...
-    def write(self, dir: _Path) -> str:
+    def write(self, dir: _Path) -> Path:
         """Writes the plan as ``host-sim plan --out DIR`` does (task.toml, robot.urdf,
         trajectory.csv, summary.json; not plan.json or figures); returns the directory."""
 

@@ -65,7 +65,12 @@ fn run(cmd: &mut Command) -> String {
 /// Compiles `sources` (in ffi/tests/c) as C99 with every warning an error, against the
 /// checked-in header, and links them with the staticlib into `exe`.
 fn compile_c(sources: &[&str], exe: &Path) {
-    let c = root().join("ffi/tests/c");
+    compile_c_in("ffi/tests/c", sources, exe);
+}
+
+/// [`compile_c`] of sources in `dir` (relative to the repository).
+fn compile_c_in(dir: &str, sources: &[&str], exe: &Path) {
+    let c = root().join(dir);
     let mut gcc = Command::new("gcc");
     gcc.args([
         "-std=c99",
@@ -236,24 +241,7 @@ fn cfs_example_flies_the_plan_closed_loop() {
     let block = dir.join("paper.block");
     block_of("spec/tasks/paper.toml", &block);
     let exe = dir.join("rl_app_demo");
-    let mut gcc = Command::new("gcc");
-    gcc.args([
-        "-std=c99",
-        "-O2",
-        "-Wall",
-        "-Wextra",
-        "-Wpedantic",
-        "-Werror",
-        "-I",
-    ])
-    .arg(root().join("ffi/include"));
-    for s in ["main.c", "rl_app.c"] {
-        gcc.arg(root().join("examples/c").join(s));
-    }
-    run(gcc
-        .arg(staticlib())
-        .args(["-lpthread", "-ldl", "-lm", "-o"])
-        .arg(&exe));
+    compile_c_in("examples/c", &["main.c", "rl_app.c"], &exe);
     let text = run(Command::new(&exe).arg(&block));
     println!("{text}");
     let got = parse(&text);

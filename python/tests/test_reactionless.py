@@ -198,6 +198,23 @@ def test_check_gives_the_cli_verdicts(tmp_path):
         assert (mine / name).read_bytes() == (cli / name).read_bytes(), name
 
 
+def _interrupted(script, *args, after=1.0):
+    """Runs `script` with `args` in a child Python, sends SIGINT `after` seconds after its
+    first line, and returns (stdout, stderr, seconds from the signal to its exit)."""
+    import signal
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", script, *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = proc.stdout.readline()
+    time.sleep(after)
+    t0 = time.perf_counter()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    return first + out, err, time.perf_counter() - t0
+
+
 _INTERRUPTED = """
 import sys, reactionless as rl
 task = rl.Task.from_toml(sys.argv[1])
@@ -213,22 +230,11 @@ print("finished", flush=True)
 def test_ctrl_c_interrupts_a_plan(threads):
     """Verifies RL-PY-006: SIGINT during plan() raises KeyboardInterrupt within a slice of
     planning, on rayon's shared pool and on a plan's own pool (threads=1)."""
-    import signal
-    import subprocess
-    import sys
-
-    proc = subprocess.Popen(
-        [sys.executable, "-c", _INTERRUPTED, str(ROOT / "tests/tasks/a/arm12/task_003.toml"),
-         threads],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert proc.stdout.readline().strip() == "planning"
-    time.sleep(1.0)
-    t0 = time.perf_counter()
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
-    assert time.perf_counter() - t0 < 5.0
+    out, err, seconds = _interrupted(
+        _INTERRUPTED, str(ROOT / "tests/tasks/a/arm12/task_003.toml"), threads)
+    assert out.startswith("planning") and "finished" not in out
     assert "KeyboardInterrupt" in err, err
-    assert "finished" not in out
+    assert seconds < 5.0
 
 
 _THREADS = """
@@ -329,21 +335,10 @@ print("finished", flush=True)
 
 def test_ctrl_c_interrupts_a_disperse():
     """Verifies RL-PY-006: SIGINT during disperse() raises KeyboardInterrupt at the next samples."""
-    import signal
-    import subprocess
-    import sys
-
-    proc = subprocess.Popen(
-        [sys.executable, "-c", _DISPERSE_INTERRUPTED, str(ROOT / "spec/tasks/paper.toml")],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert proc.stdout.readline().strip() == "dispersing"
-    time.sleep(1.0)
-    t0 = time.perf_counter()
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
-    assert time.perf_counter() - t0 < 10.0
+    out, err, seconds = _interrupted(_DISPERSE_INTERRUPTED, str(ROOT / "spec/tasks/paper.toml"))
+    assert out.startswith("dispersing") and "finished" not in out
     assert "KeyboardInterrupt" in err, err
-    assert "finished" not in out
+    assert seconds < 10.0
 
 
 def test_the_binding_costs_under_two_percent_of_a_plan():

@@ -204,8 +204,9 @@ fn closed_loop_runs_fly_the_same_robots_over_jobs_and_shards() {
 
 /// `--closed-loop --export-sample K --out DIR` writes the sample's dispersed robot, its
 /// flown joint path at the plan's step (t_f plus the 3 s extension), the task and the
-/// per-cycle trace, and with `--plots` the flight's figures; `--plots` with an open-loop
-/// export is refused.
+/// per-cycle trace, and with `--plots` the flight's figures and the loop's (`closed_loop`:
+/// the base rotation and its estimate, the commands less the plan, the end effector's
+/// distance to the target); `--plots` with an open-loop export is refused.
 /// Verifies RL-SIM-LOOP-003.
 #[test]
 fn a_closed_loop_sample_exports_its_flight() {
@@ -227,6 +228,8 @@ fn a_closed_loop_sample_exports_its_flight() {
         "joints.png",
         "base_attitude.svg",
         "summary.json",
+        "closed_loop.png",
+        "closed_loop.svg",
     ] {
         assert!(out.join(f).is_file(), "{f}");
     }

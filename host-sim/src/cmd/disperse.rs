@@ -356,7 +356,7 @@ fn export_flight<const N: usize, const K: usize>(
         (serde_json::to_string_pretty(&summary).or_internal(|| "summary.json")? + "\n").as_bytes(),
     )?;
     if plots {
-        flight_figures::<N, K>(&dispersed, &trace, seed, sample, &dir)?;
+        flight_figures::<N, K>(&dispersed, &trace, &path, config.period, seed, sample, &dir)?;
     }
     let written = dir.commit()?;
     eprintln!(
@@ -369,10 +369,14 @@ fn export_flight<const N: usize, const K: usize>(
 }
 
 /// The closed-loop flight's figures (crate::plots' joints, joint rates, end-effector path
-/// and base attitude), on the dispersed robot it flew.
+/// and base attitude, on the dispersed robot it flew) and the loop's own: the true base
+/// rotation against the estimate, the commands less the plan's rates, the end effector's
+/// distance to the target.
 fn flight_figures<const N: usize, const K: usize>(
     dispersed: &LoadedTask,
     trace: &closed_loop::Trace,
+    path: &JointPath<N>,
+    period: f64,
     seed: u64,
     sample: u64,
     dir: &OutDir,
@@ -418,6 +422,47 @@ fn flight_figures<const N: usize, const K: usize>(
         ),
     };
     crate::plots::write_plots(&dir.path(""), &data)?;
+    // The plan's rate over the cycle each command is flown in (cycle k + 1).
+    let (per, _) = closed_loop::cycle_steps(path, period)?;
+    let last = path.q.len() - 1;
+    let at = |k: usize| path.q[(k * per).min(last)];
+    let correction = trace
+        .command
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let (a, b) = (at(k + 1), at(k + 2));
+            c.iter()
+                .enumerate()
+                .map(|(j, v)| v - (b[j] - a[j]) / period)
+                .collect()
+        })
+        .collect();
+    let norm_deg = |v: &[f64; 3]| {
+        (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+            .sqrt()
+            .to_degrees()
+    };
+    let target = task.target().position;
+    let loop_data = crate::plots::LoopPlotData {
+        joint_names: dispersed.chain.joint_names.clone(),
+        t_cycle: trace.t.clone(),
+        truth_deg: trace.theta.iter().map(norm_deg).collect(),
+        estimate_deg: trace.theta_estimate.iter().map(norm_deg).collect(),
+        correction,
+        t: trace.flown_t.clone(),
+        ee_distance_m: data
+            .ee
+            .iter()
+            .map(|p| {
+                let d = [p[0] - target[0], p[1] - target[1], p[2] - target[2]];
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            })
+            .collect(),
+        base_limit_deg: data.base_limit_deg,
+        stamp: data.stamp.clone(),
+    };
+    crate::plots::write_loop_plots(&dir.path(""), &loop_data)?;
     Ok(())
 }
 

@@ -1,7 +1,7 @@
 //! Figure specifications: what each figure shows, checked and laid out before anything is
 //! drawn (backend independent).
 
-use super::{Cdf, PlotData, RetimePlotData};
+use super::{Cdf, LoopPlotData, PlotData, RetimePlotData};
 use crate::goal::number;
 use plotters::style::{BLACK, RGBColor};
 
@@ -926,6 +926,176 @@ pub(super) fn cdf_figure(c: &Cdf<'_>, stamp: &str) -> Result<Figure, String> {
         }],
         stamp: stamp.to_string(),
         equal_aspect: false,
+    })
+}
+
+/// A closed-loop flight (issue #31's `fly` plots): the true base rotation and the loop's
+/// estimate of it against the requirement, each joint's command less the plan's rate
+/// (what the loop adds), and the end effector's distance to the target (log scale).
+pub(super) fn loop_figure(d: &LoopPlotData) -> Result<Figure, String> {
+    let nc = d.t_cycle.len();
+    if nc == 0 || d.truth_deg.len() != nc || d.estimate_deg.len() != nc || d.correction.len() != nc
+    {
+        return Err(format!(
+            "closed loop: {nc} cycles, {} true angles, {} estimates, {} commands",
+            d.truth_deg.len(),
+            d.estimate_deg.len(),
+            d.correction.len()
+        ));
+    }
+    let nj = d.joint_names.len();
+    check_rows(&[("correction", &d.correction)], nj)?;
+    if d.t.len() != d.ee_distance_m.len() {
+        return Err(format!(
+            "closed loop: {} sample times, {} end-effector distances",
+            d.t.len(),
+            d.ee_distance_m.len()
+        ));
+    }
+    let (t0, t1) = time_range(&d.t)?;
+    let limit = d.base_limit_deg;
+    let has_limit = limit.is_finite() && limit > 0.0;
+
+    // Top: the base rotation, truth and estimate.
+    let truth = segments(d.t_cycle.iter().copied().zip(d.truth_deg.iter().copied()));
+    let estimate = segments(
+        d.t_cycle
+            .iter()
+            .copied()
+            .zip(d.estimate_deg.iter().copied()),
+    );
+    let y = finite_range(
+        d.truth_deg
+            .iter()
+            .chain(&d.estimate_deg)
+            .copied()
+            .chain(has_limit.then_some(limit)),
+    )
+    .ok_or("closed loop: no finite base rotation")?;
+    let y = padded("base rotation", (0.0, y.1), 0.06)?;
+    let mut lines = vec![
+        Line {
+            label: Some("|θ| true".into()),
+            colour: BLACK,
+            kind: LineKind::Data,
+            dots: false,
+            segments: truth,
+        },
+        Line {
+            label: Some("the loop's estimate of |θ|".into()),
+            colour: colour(0),
+            kind: LineKind::Data,
+            dots: false,
+            segments: estimate,
+        },
+    ];
+    if has_limit {
+        lines.push(Line {
+            label: Some(format!("requirement ≤ {} deg", number(limit))),
+            colour: RED,
+            kind: LineKind::Limit,
+            dots: false,
+            segments: vec![vec![(t0, limit), (t1, limit)]],
+        });
+    }
+    let base = Panel {
+        title: "Base rotation since t = 0 (deg): the truth and the loop's estimate".into(),
+        x_label: "time (s)".into(),
+        y_label: "|θ| (deg)".into(),
+        x: (t0, t1),
+        y,
+        y_log: false,
+        x_ticks: value_ticks((t0, t1)),
+        y_ticks: value_ticks(y),
+        x_label_count: Some(8),
+        y_label_count: Some(6),
+        lines,
+        markers: Vec::new(),
+    };
+
+    // Middle: each joint's command less the plan's rate over the same cycle.
+    let per_joint: Vec<Vec<Vec<(f64, f64)>>> = (0..nj)
+        .map(|j| {
+            segments(
+                d.t_cycle
+                    .iter()
+                    .zip(&d.correction)
+                    .map(|(&t, row)| (t, row[j].to_degrees())),
+            )
+        })
+        .collect();
+    let y = finite_range(per_joint.iter().flatten().flatten().map(|p| p.1))
+        .ok_or("closed loop: no finite command")?;
+    let y = padded("command less plan", y, 0.06)?;
+    let corrections = Panel {
+        title: "Commands less the plan's rates (deg/s): what the loop adds".into(),
+        x_label: "time (s)".into(),
+        y_label: "rate (deg/s)".into(),
+        x: (t0, t1),
+        y,
+        y_log: false,
+        x_ticks: value_ticks((t0, t1)),
+        y_ticks: value_ticks(y),
+        x_label_count: Some(8),
+        y_label_count: Some(6),
+        lines: per_joint
+            .into_iter()
+            .enumerate()
+            .map(|(j, segs)| Line {
+                label: Some(d.joint_names[j].clone()),
+                colour: colour(j),
+                kind: LineKind::Data,
+                dots: false,
+                segments: segs,
+            })
+            .collect(),
+        markers: Vec::new(),
+    };
+
+    // Bottom: the end effector's distance to the target, log scale.
+    let (small, large) = finite_range(d.ee_distance_m.iter().copied().filter(|v| *v > 0.0))
+        .ok_or("closed loop: no positive end-effector distance")?;
+    let lo = 10f64.powf(small.log10().floor()) * (1.0 - 1e-9);
+    let hi = 10f64.powf((large * 1.5).log10().ceil()) * (1.0 + 1e-9);
+    let last = d.ee_distance_m.last().copied().unwrap_or(f64::NAN);
+    let ee = Panel {
+        title: format!(
+            "End effector's distance to the target (m, truth model; {} m at the end)",
+            number(last)
+        ),
+        x_label: "time (s)".into(),
+        y_label: "distance (m)".into(),
+        x: (t0, t1),
+        y: (lo, hi),
+        y_log: true,
+        x_ticks: value_ticks((t0, t1)),
+        y_ticks: Ticks::Sci {
+            digits: 0,
+            zero: 0.0,
+        },
+        x_label_count: Some(8),
+        y_label_count: None,
+        lines: vec![Line {
+            label: None,
+            colour: colour(1),
+            kind: LineKind::Data,
+            dots: false,
+            segments: segments(
+                d.t.iter()
+                    .zip(&d.ee_distance_m)
+                    .map(|(&t, &v)| (t, if v >= lo { v } else { f64::NAN })),
+            ),
+        }],
+        markers: Vec::new(),
+    };
+    Ok(Figure {
+        stamp: d.stamp.clone(),
+        equal_aspect: false,
+        name: "closed_loop".into(),
+        size: (1200, 1100),
+        title: Some("Closed-loop flight: base attitude, commands, end effector".into()),
+        columns: 1,
+        panels: vec![base, corrections, ee],
     })
 }
 

@@ -1,9 +1,9 @@
 //! Plots of a trajectory and a plan (plotters; PNG and SVG): the paper's Figs. 3–6 and more.
 //!
 //! Owns the figures' inputs as plain data, in SI units as computed: [`PlotData`] (a
-//! rollout or a plan), [`RetimePlotData`] (a re-timed trajectory) and [`Cdf`] (one
-//! dispersion figure); and their writers [`write_plots`], [`write_retime_data`] and
-//! [`write_cdfs`]. It reads no host-sim module but `error` and `goal` (for
+//! rollout or a plan), [`RetimePlotData`] (a re-timed trajectory), [`LoopPlotData`] (a
+//! closed-loop flight) and [`Cdf`] (one dispersion figure); and their writers
+//! [`write_plots`], [`write_retime_data`], [`write_loop_plots`] and [`write_cdfs`]. It reads no host-sim module but `error` and `goal` (for
 //! [`crate::goal::number`], the one way numbers are written for a reader): the callers
 //! (`artifacts`, `retiming`, `dispersion_report`) fill the data, the stamp included.
 //!
@@ -113,6 +113,40 @@ pub fn write_retime_data(dir: &Path, data: &RetimePlotData) -> Result<Vec<String
     ensure_font().map_err(err)?;
     let figures = figures::retime_figures(data).map_err(err)?;
     render(dir, &figures)
+}
+
+/// What the figure of a closed-loop flight needs (SI units, radians; degrees where named).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopPlotData {
+    /// Joint names (URDF), one per joint.
+    pub joint_names: Vec<String>,
+    /// Time of each control cycle's measurement (s).
+    pub t_cycle: Vec<f64>,
+    /// The true base rotation's angle at each cycle (deg).
+    pub truth_deg: Vec<f64>,
+    /// The loop's estimate of it at each cycle (deg).
+    pub estimate_deg: Vec<f64>,
+    /// Each cycle's command less the plan's rate over the cycle it is flown in (rad/s):
+    /// `correction[cycle][joint]`.
+    pub correction: Vec<Vec<f64>>,
+    /// Sample times of the flown path (s).
+    pub t: Vec<f64>,
+    /// The end effector's distance to the target at each sample (m, truth model).
+    pub ee_distance_m: Vec<f64>,
+    /// The base-disturbance requirement (deg).
+    pub base_limit_deg: f64,
+    /// What made the figure.
+    pub stamp: String,
+}
+
+/// Writes `closed_loop` (PNG and SVG) into `dir`: the base rotation and the loop's
+/// estimate against the requirement, the commands less the plan's rates, and the end
+/// effector's distance to the target.
+pub fn write_loop_plots(dir: &Path, data: &LoopPlotData) -> Result<Vec<String>, CliError> {
+    let err = |e: String| CliError::input(format!("writing plots: {e}"));
+    ensure_font().map_err(err)?;
+    let figure = figures::loop_figure(data).map_err(err)?;
+    render(dir, &[figure])
 }
 
 /// One figure's values for [`write_cdfs`].

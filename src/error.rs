@@ -359,6 +359,15 @@ pub enum Error {
         /// The segment count asked for.
         segments: u32,
     },
+    /// An integrator step that is not a whole divisor of a segment's `dt` steps (or not
+    /// one `dt` for Euler): [`crate::Motion::with_integrator_stride`].
+    StrideUneven {
+        /// The samples per integrator step asked for.
+        stride: u32,
+    },
+    /// A motion integrated by [`crate::Integrator::Rk4`] was given to several rollouts side
+    /// by side ([`crate::batch::Batch`]), which integrate with the reference Euler step.
+    NeedsEuler,
     /// A motion of several segments was given to something that plans or rolls out one.
     NeedsOneSegment(NeedsOneSegment),
     /// A re-timing grid of fewer than `min` points ([`crate::retime::MIN_GRID`]).
@@ -546,6 +555,14 @@ impl fmt::Display for Error {
             Error::SegmentsUneven { segments } => write!(
                 f,
                 "the t_f/dt integration steps do not split into {segments} equal segments"
+            ),
+            Error::NeedsEuler => f.write_str(
+                "rollouts side by side (lanes) integrate with Euler only: roll an rk4 motion out one at a time",
+            ),
+            Error::StrideUneven { stride } => write!(
+                f,
+                "an integrator step of {stride} dt does not divide each segment's steps \
+                 (Euler integrates every dt)"
             ),
             Error::NeedsOneSegment(what) => write!(
                 f,

@@ -38,7 +38,7 @@
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 5
+#define RL_ABI_VERSION 6
 
 /*
  Joints of the flight robot (N).
@@ -70,7 +70,7 @@
 /*
  Words (u64) of stream storage inside [`rl_setpoints`].
  */
-#define RL_SETPOINTS_WORDS 224
+#define RL_SETPOINTS_WORDS 256
 
 /*
  Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at

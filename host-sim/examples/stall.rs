@@ -129,6 +129,7 @@ fn diagnose<const N: usize, const K: usize>(
         strategy: None,
         refine_against: Some(RefineAgainst::Truth),
         paper: true,
+        integrator: None,
     };
     let config = lt.planner(HOST_CAPACITY, &overrides)?;
     let task = lt.task::<N, K>()?;

@@ -10,7 +10,7 @@ use crate::error::CliError;
 use crate::taskfile::Overrides;
 use crate::urdf::{self, Chain};
 use reactionless::{
-    Error as CoreError, Eta, Family, Param, RefineAgainst, Strategy, eta_from_flat,
+    Error as CoreError, Eta, Family, Integrator, Param, RefineAgainst, Strategy, eta_from_flat,
 };
 use std::path::PathBuf;
 
@@ -161,6 +161,10 @@ pub struct PlanArgs {
     /// What the plan must reach.
     #[command(flatten)]
     pub goal: GoalArgs,
+    /// How rollouts integrate the path: euler (the reference) or rk4 (overrides `[motion]
+    /// integrator`; the written bundle's task says which).
+    #[arg(long, value_parser = parse_integrator)]
+    pub integrator: Option<Integrator>,
 }
 
 impl PlanArgs {
@@ -169,9 +173,16 @@ impl PlanArgs {
         Overrides {
             seed: self.seed,
             strategy: self.strategy,
+            integrator: self.integrator,
             ..self.goal.overrides()
         }
     }
+}
+
+/// Parses an integrator name (clap value parser).
+pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
+    Integrator::from_name(s.trim())
+        .ok_or_else(|| format!("'{s}' is not an integrator (expected euler or rk4)"))
 }
 
 /// Parses a strategy name (clap value parser).

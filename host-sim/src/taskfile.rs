@@ -8,7 +8,7 @@ use crate::error::{CliError, Context};
 use crate::goal::{Asked, Goal};
 use crate::urdf::{self, Chain};
 use reactionless::{
-    Error as CoreError, Family, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy,
+    Error as CoreError, Family, Integrator, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy,
     Task,
 };
 use serde::{Deserialize, Serialize};
@@ -563,6 +563,15 @@ pub struct MotionSection {
     /// `tf_s / dt_s`; see `reactionless::Motion::with_segments`).
     #[serde(default = "default_segments")]
     pub segments: u32,
+    /// How the path is integrated: `"euler"` (the reference discretization of spec §5,
+    /// the default, the paper's) or `"rk4"` (the continuous path of spec §14 to fourth
+    /// order in steps of several `dt`, the samples at `dt` from a dense output; see
+    /// `reactionless::Integrator`). `--integrator` overrides it.
+    #[serde(default)]
+    pub integrator: Integrator,
+    /// The RK4 step (s): a whole multiple of `dt_s` that divides each segment (default:
+    /// the largest one up to 0.4 s). Only with `integrator = "rk4"`.
+    pub integrator_step_s: Option<f64>,
 }
 
 fn default_n() -> u32 {
@@ -921,10 +930,60 @@ impl LoadedTask {
             };
             self.err(what)
         })?;
-        motion
+        let motion = motion
             .with_family(m.family)
             .with_segments(m.segments)
-            .map_err(|e| self.err(format!("[motion] segments = {}: {e}", m.segments)))
+            .map_err(|e| self.err(format!("[motion] segments = {}: {e}", m.segments)))?
+            .with_integrator(m.integrator)
+            .map_err(|e| self.err(format!("[motion] integrator = {:?}: {e}", m.integrator.name())))?;
+        let Some(step) = m.integrator_step_s else {
+            return Ok(motion);
+        };
+        let key = format!("[motion] integrator_step_s = {step}");
+        if m.integrator != Integrator::Rk4 {
+            return Err(self.err(format!("{key}: only with integrator = \"rk4\"")));
+        }
+        let ratio = step / m.dt_s;
+        let stride = ratio.round();
+        if !(step.is_finite() && step > 0.0) || (stride - ratio).abs() > 1e-9 * ratio || stride > f64::from(u32::MAX) {
+            return Err(self.err(format!(
+                "{key}: must be a whole multiple of dt_s = {} s",
+                m.dt_s
+            )));
+        }
+        motion.with_integrator_stride(stride as u32).map_err(|_| {
+            self.err(format!(
+                "{key}: {stride} steps of dt_s do not divide each segment's {} steps",
+                motion.segment().steps()
+            ))
+        })
+    }
+
+    /// Makes the task integrate with `integrator` (the `--integrator` flag), in its parsed
+    /// form and in its text (so the bundle a plan writes says so); its `integrator_step_s`,
+    /// if any, stays. Nothing for `None`.
+    ///
+    /// # Errors
+    /// The task's motion then invalid (as [`LoadedTask::motion`]).
+    pub fn set_integrator(&mut self, integrator: Option<Integrator>) -> Result<(), CliError> {
+        let Some(integrator) = integrator else {
+            return Ok(());
+        };
+        if integrator == self.file.motion.integrator {
+            return Ok(());
+        }
+        let mut table: toml::Table =
+            toml::from_str(&self.text).or_internal(|| "re-reading the task")?;
+        if let Some(toml::Value::Table(motion)) = table.get_mut("motion") {
+            motion.insert("integrator".into(), toml::Value::String(integrator.name().into()));
+            if integrator == Integrator::Euler {
+                motion.remove("integrator_step_s");
+                self.file.motion.integrator_step_s = None;
+            }
+        }
+        self.text = toml::to_string(&table).or_internal(|| "writing the task")?;
+        self.file.motion.integrator = integrator;
+        self.motion().map(|_| ())
     }
 
     /// Start configuration (rad), checked for length and finiteness.
@@ -1045,6 +1104,8 @@ pub struct Overrides {
     pub refine_against: Option<RefineAgainst>,
     /// `--paper`: the goal is the paper's `f ≤ σ_e`, not the pose tolerances.
     pub paper: bool,
+    /// `--integrator` ([`LoadedTask::set_integrator`]).
+    pub integrator: Option<Integrator>,
 }
 
 impl Overrides {

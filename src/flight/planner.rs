@@ -644,8 +644,14 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     /// Starts `c` (the current candidate) and the candidates the search knows after it in
     /// lanes, if it knows at least one (`false`: evaluate `c` alone).
     fn start_ahead(&mut self, c: &Candidate<K>) -> bool {
-        // Lanes roll out one segment: a motion of several goes one candidate at a time.
-        if c.truth || self.task.motion().segments() > 1 || self.ahead_candidate(1).is_none() {
+        // Lanes roll out one segment with the reference discretization: a motion of several,
+        // or one integrated by RK4, goes one candidate at a time.
+        let motion = self.task.motion();
+        if c.truth
+            || motion.segments() > 1
+            || motion.integrator() != crate::Integrator::Euler
+            || self.ahead_candidate(1).is_none()
+        {
             return false;
         }
         self.ahead.flush(&self.task);

@@ -28,7 +28,7 @@ use crate::kinematics::Frames;
 use crate::lanes::{LaneMask, Lanes, Mask};
 use crate::rollout::{Outcome, Rollout, State, Stepped};
 use crate::task::Task;
-use crate::trajectory::TimeLaw;
+use crate::trajectory::{Integrator, TimeLaw};
 use core::fmt::Debug;
 
 /// How a lane's rollout ended (as [`Rollout::advance`] would have ended it).
@@ -157,7 +157,8 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
     ///
     /// # Errors
     /// As [`Rollout::new`] (the lane stays empty); [`Error::NotInitialized`] for a lane
-    /// index out of range or a lane that is not empty.
+    /// index out of range or a lane that is not empty; [`Error::NeedsEuler`] for a motion
+    /// integrated by RK4.
     pub fn load(
         &mut self,
         i: usize,
@@ -167,6 +168,9 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
     ) -> Result<(), Error> {
         if !matches!(self.lanes.get(i), Some(Lane::Empty)) {
             return Err(Error::NotInitialized);
+        }
+        if task.motion().integrator() != Integrator::Euler {
+            return Err(Error::NeedsEuler);
         }
         let law = TimeLaw::new(eta, task.motion(), task.robot().qd_max()).map_err(|e| {
             if task.motion().segments() > 1 {

@@ -1,9 +1,12 @@
 //! The integrators, in one place: the explicit Euler step of the joint path (eq. 19,
-//! spec §5) and the midpoint sub-steps the truth model integrates the base attitude with.
+//! spec §5), the fourth-order step of the continuous path (spec §14) with its dense
+//! output, and the midpoint sub-steps the truth model integrates the base attitude with.
 //!
 //! Owns [`euler_step`] (used by the rollout, and by `host-sim check` to verify every
-//! written row) and [`midpoint_substeps`] (used by [`crate::TruthModel`]). Both are the
-//! reference discretization: changing either moves every golden record.
+//! written row) and [`midpoint_substeps`] (used by [`crate::TruthModel`]): both are the
+//! reference discretization, and changing either moves every golden record. Owns
+//! [`rk4_step`] and [`hermite`], which [`crate::Integrator::Rk4`] rollouts use: classical
+//! Runge–Kutta on `(q, N)` and the cubic Hermite interpolant of `q` between two steps.
 
 use crate::lanes::Real;
 
@@ -80,4 +83,202 @@ pub fn midpoint_substep<const N: usize>(
         *x = a + frac * (b - a);
     }
     (mid, dq)
+}
+
+/// The rates of the continuous path's state `(q, N)`: `(q̇, Ṅ)` (rad/s, 1/s).
+pub type Rates<const N: usize, const K: usize> = ([f64; N], [[f64; N]; K]);
+
+/// `y + c·k` for the state `(q, cols)` and its rates `k`.
+#[inline(always)]
+fn offset<const N: usize, const K: usize>(
+    q: &[f64; N],
+    cols: &[[f64; N]; K],
+    c: f64,
+    k: &Rates<N, K>,
+) -> ([f64; N], [[f64; N]; K]) {
+    let mut q2 = *q;
+    for (x, v) in q2.iter_mut().zip(k.0.iter()) {
+        *x += c * *v;
+    }
+    let mut n2 = *cols;
+    for (col, dcol) in n2.iter_mut().zip(k.1.iter()) {
+        for (x, v) in col.iter_mut().zip(dcol.iter()) {
+            *x += c * *v;
+        }
+    }
+    (q2, n2)
+}
+
+/// One classical Runge–Kutta step of length `h` (s) from time `t` (s) of the state `q`
+/// (rad) and `cols` (the basis columns), in place, for `ẏ = f(t, y)`:
+/// `k₁ = f(t, y)`, `k₂ = f(t + h/2, y + h/2·k₁)`, `k₃ = f(t + h/2, y + h/2·k₂)`,
+/// `k₄ = f(t + h, y + h·k₃)`, `y ← y + h/6·(k₁ + 2k₂ + 2k₃ + k₄)`, each component in that
+/// order (four evaluations of `f`, no FMA: the same bits on every target).
+///
+/// # Errors
+/// The first error of `f`; `q` and `cols` are then unchanged.
+///
+/// Verifies RL-CONT-002.
+///
+/// ```
+/// // ẏ = y from y(0) = 1: one step of 0.1 is e^0.1 to 1e-7 (local error h⁵/120).
+/// let (mut q, mut n) = ([1.0], [[0.0]]);
+/// reactionless::integrator::rk4_step(0.0, 0.1, &mut q, &mut n, |_, q, _| {
+///     Ok::<_, ()>(([q[0]], [[0.0]]))
+/// })
+/// .unwrap();
+/// assert!((q[0] - 0.1f64.exp()).abs() < 1e-7);
+/// ```
+pub fn rk4_step<const N: usize, const K: usize, E>(
+    t: f64,
+    h: f64,
+    q: &mut [f64; N],
+    cols: &mut [[f64; N]; K],
+    mut f: impl FnMut(f64, &[f64; N], &[[f64; N]; K]) -> Result<Rates<N, K>, E>,
+) -> Result<(), E> {
+    let half = 0.5 * h;
+    let k1 = f(t, q, cols)?;
+    let (q2, n2) = offset(q, cols, half, &k1);
+    let k2 = f(t + half, &q2, &n2)?;
+    let (q3, n3) = offset(q, cols, half, &k2);
+    let k3 = f(t + half, &q3, &n3)?;
+    let (q4, n4) = offset(q, cols, h, &k3);
+    let k4 = f(t + h, &q4, &n4)?;
+    let sixth = h / 6.0;
+    let mix = |a: f64, b: f64, c: f64, d: f64| sixth * (a + 2.0 * b + 2.0 * c + d);
+    for (i, x) in q.iter_mut().enumerate() {
+        if let (Some(a), Some(b), Some(c), Some(d)) =
+            (k1.0.get(i), k2.0.get(i), k3.0.get(i), k4.0.get(i))
+        {
+            *x += mix(*a, *b, *c, *d);
+        }
+    }
+    for (j, col) in cols.iter_mut().enumerate() {
+        let (Some(a), Some(b), Some(c), Some(d)) =
+            (k1.1.get(j), k2.1.get(j), k3.1.get(j), k4.1.get(j))
+        else {
+            continue;
+        };
+        for (i, x) in col.iter_mut().enumerate() {
+            if let (Some(a), Some(b), Some(c), Some(d)) = (a.get(i), b.get(i), c.get(i), d.get(i)) {
+                *x += mix(*a, *b, *c, *d);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The cubic Hermite interpolant of one integrator step of `h` seconds, between `(q0, v0)`
+/// at `θ = 0` and `(q1, v1)` at `θ = 1` (positions rad, rates rad/s), per joint
+/// `p(θ) = c₀ + c₁θ + c₂θ² + c₃θ³`: the dense output of an [`rk4_step`] (third order in
+/// `h`, exact at both ends up to rounding), with its exact range and rate bound over the
+/// step.
+///
+/// Verifies RL-CONT-003.
+///
+/// ```
+/// use reactionless::integrator::Cubic;
+/// // A cubic is reproduced: q(t) = t³ on [1, 3] (h = 2), its range [1, 27], its rate ≤ 27.
+/// let c = Cubic::hermite(&[1.0], &[3.0], &[27.0], &[27.0], 2.0);
+/// for th in [0.0, 0.25, 0.5, 1.0] {
+///     let t: f64 = 1.0 + 2.0 * th;
+///     assert!((c.at(th)[0] - t.powi(3)).abs() < 1e-12);
+/// }
+/// assert_eq!(c.range(), ([1.0], [27.0]));
+/// assert_eq!(c.rate_bound(2.0), 27.0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cubic<const N: usize> {
+    /// `[c₀, c₁, c₂, c₃]` per joint (rad).
+    c: [[f64; 4]; N],
+}
+
+impl<const N: usize> Cubic<N> {
+    /// All zeros.
+    pub const IDLE: Self = Self { c: [[0.0; 4]; N] };
+
+    /// The interpolant of `(q0, v0)`, `(q1, v1)` over a step of `h` seconds.
+    #[must_use]
+    pub fn hermite(q0: &[f64; N], v0: &[f64; N], q1: &[f64; N], v1: &[f64; N], h: f64) -> Self {
+        let mut c = [[0.0; 4]; N];
+        for (i, ci) in c.iter_mut().enumerate() {
+            if let (Some(a), Some(va), Some(b), Some(vb)) =
+                (q0.get(i), v0.get(i), q1.get(i), v1.get(i))
+            {
+                let (da, db, d) = (h * va, h * vb, b - a);
+                *ci = [*a, da, 3.0 * d - 2.0 * da - db, da + db - 2.0 * d];
+            }
+        }
+        Self { c }
+    }
+
+    /// `p(θ)` (rad), by Horner's rule.
+    #[inline]
+    #[must_use]
+    pub fn at(&self, theta: f64) -> [f64; N] {
+        self.c
+            .map(|[c0, c1, c2, c3]| c0 + theta * (c1 + theta * (c2 + theta * c3)))
+    }
+
+    /// The smallest and largest `p(θ)` over `θ ∈ [0, 1]`, per joint (rad): the ends and
+    /// the interior roots of `p′`.
+    #[must_use]
+    pub fn range(&self) -> ([f64; N], [f64; N]) {
+        let mut lo = [0.0; N];
+        let mut hi = [0.0; N];
+        for ((l, h), &[c0, c1, c2, c3]) in lo.iter_mut().zip(hi.iter_mut()).zip(self.c.iter()) {
+            let end = c0 + c1 + c2 + c3;
+            let (mut a, mut b) = (c0.min(end), c0.max(end));
+            // p′(θ) = c₁ + 2c₂θ + 3c₃θ²: at most two roots.
+            for th in quadratic_roots(3.0 * c3, 2.0 * c2, c1) {
+                if th > 0.0 && th < 1.0 {
+                    let v = c0 + th * (c1 + th * (c2 + th * c3));
+                    a = a.min(v);
+                    b = b.max(v);
+                }
+            }
+            *l = a;
+            *h = b;
+        }
+        (lo, hi)
+    }
+
+    /// The largest `|ṗ|` over the step (rad/s) for a step of `h` seconds: the ends and the
+    /// vertex of the quadratic `p′`, over every joint. The rate of every chord of the step
+    /// is at most this (mean value theorem).
+    #[must_use]
+    pub fn rate_bound(&self, h: f64) -> f64 {
+        let mut most = 0.0f64;
+        for &[_, c1, c2, c3] in &self.c {
+            most = most
+                .max(libm::fabs(c1))
+                .max(libm::fabs(c1 + 2.0 * c2 + 3.0 * c3));
+            if c3 != 0.0 {
+                let th = -c2 / (3.0 * c3);
+                if th > 0.0 && th < 1.0 {
+                    most = most.max(libm::fabs(c1 + th * (2.0 * c2 + th * 3.0 * c3)));
+                }
+            }
+        }
+        most / h
+    }
+}
+
+/// The real roots of `a x² + b x + c` (NaN where there is none; one root repeated for a
+/// linear equation), in the numerically stable form.
+fn quadratic_roots(a: f64, b: f64, c: f64) -> [f64; 2] {
+    if a == 0.0 {
+        let x = if b == 0.0 { f64::NAN } else { -c / b };
+        return [x, x];
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return [f64::NAN; 2];
+    }
+    let sq = libm::sqrt(disc);
+    let q = -0.5 * (b + if b < 0.0 { -sq } else { sq });
+    if q == 0.0 {
+        return [0.0; 2];
+    }
+    [q / a, c / q]
 }

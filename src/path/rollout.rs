@@ -16,14 +16,15 @@
 
 use crate::error::Error;
 use crate::geometry::{Pose, PoseError};
-use crate::integrator::euler_step;
+use crate::integrator::{Cubic, euler_step, rk4_step};
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::lanes::{Lanes, Real};
 use crate::model::Robot;
 use crate::momentum::coupling;
+use crate::momentum::{DualFrames, coupling_rate};
 use crate::nullspace::{Basis, Conditioned};
 use crate::task::{Task, rank_error};
-use crate::trajectory::{Eta, Motion, TimeLaw, alpha};
+use crate::trajectory::{Eta, Integrator, Motion, TimeLaw, alpha};
 use core::convert::Infallible;
 
 /// One point of the trajectory.
@@ -46,6 +47,12 @@ pub struct Sample<const N: usize> {
 pub trait Sink<const N: usize> {
     /// Called once per sample, in order `s = 0, 1, …, S`.
     fn sample(&mut self, s: &Sample<N>);
+
+    /// `true` if [`Sink::sample`] does nothing: an [`crate::Integrator::Rk4`] rollout then
+    /// skips computing the samples between its integrator steps (the outcome is the same).
+    fn discards(&self) -> bool {
+        false
+    }
 }
 
 impl<const N: usize, F: FnMut(&Sample<N>)> Sink<N> for F {
@@ -56,6 +63,10 @@ impl<const N: usize, F: FnMut(&Sample<N>)> Sink<N> for F {
 
 impl<const N: usize> Sink<N> for () {
     fn sample(&mut self, _: &Sample<N>) {}
+
+    fn discards(&self) -> bool {
+        true
+    }
 }
 
 /// What a finished rollout returns.
@@ -266,6 +277,8 @@ pub struct Rollout<const N: usize, const K: usize> {
     law: TimeLaw<K>,
     step: u32,
     state: State<N, K, f64>,
+    /// [`Integrator::Rk4`]: the integrator step the samples are being taken from.
+    span: Span<N>,
     /// Abandon once Φ of the samples so far exceeds this (rad); `∞` never abandons.
     phi_cap: f64,
     phase: Phase<N>,
@@ -297,6 +310,7 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             law,
             step,
             state,
+            span: Span::IDLE,
             phi_cap: f64::INFINITY,
             phase: Phase::Running,
         }
@@ -430,6 +444,9 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         sink: &mut S,
     ) -> Result<Result<(), C::Stop>, Error> {
         let motion = task.motion();
+        if motion.integrator() == Integrator::Rk4 {
+            return self.integrate_rk4(task, end, cap, sink);
+        }
         let robot = task.robot();
         let dt = motion.dt();
         // One segment's grid: the motion itself when it has one segment.
@@ -468,6 +485,136 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         Ok(Ok(()))
     }
 
+    /// [`Rollout::integrate`] for [`Integrator::Rk4`]: at each integrator node (every
+    /// [`Motion::stride`] samples of a segment) one [`rk4_step`] of `(q, N)` to the next
+    /// node, and the [`Cubic`] Hermite interpolant `p` of `q` over it. The samples are
+    /// `q_s = p(t_s)` (the nodes exactly) and `q̇_s = (q_{s+1} − q_s)/(t_{s+1} − t_s)`, the
+    /// rate of the written path over `[t_s, t_{s+1})` as Euler's; the joint extrema and the
+    /// largest rate are those of `p` over the whole step (its range and rate bound), folded
+    /// in at the node, where the violation cap is checked. So the outcome does not depend on
+    /// the sink, and a sink that [`Sink::discards`] costs no sample work.
+    #[inline(never)]
+    fn integrate_rk4<S: Sink<N>, C: Cap>(
+        &mut self,
+        task: &Task<N, K>,
+        end: u32,
+        cap: &C,
+        sink: &mut S,
+    ) -> Result<Result<(), C::Stop>, Error> {
+        let motion = task.motion();
+        let robot = task.robot();
+        let grid = motion.segment();
+        let per = grid.steps().max(1);
+        let stride = motion.stride().max(1);
+        let mut frames = DualFrames::default();
+        while self.step < end {
+            let k = (self.step / per).min(motion.segments().saturating_sub(1));
+            let local = self.step - k * per;
+            let j = local % stride;
+            if j == 0 {
+                self.span_step(task, k, local, &mut frames)?;
+                if let Err(stop) = cap.check(self.step, || {
+                    robot.violation(&self.state.q_min, &self.state.q_max)
+                }) {
+                    return Ok(Err(stop));
+                }
+            }
+            // The samples of this step that this call reaches.
+            let last = (self.step + (stride - j)).min(end);
+            if sink.discards() {
+                let reached = last - self.step;
+                self.step = last;
+                self.state.q = if j + reached == stride {
+                    self.span.q
+                } else {
+                    self.span.p.at(f64::from(j + reached) / f64::from(stride))
+                };
+                continue;
+            }
+            let mut i = j;
+            while self.step < last {
+                let next = if i + 1 == stride {
+                    self.span.q
+                } else {
+                    self.span.p.at(f64::from(i + 1) / f64::from(stride))
+                };
+                let t = motion.time(self.step);
+                let dt = motion.time(self.step + 1) - t;
+                let mut qd = [0.0; N];
+                for ((v, b), a) in qd.iter_mut().zip(next.iter()).zip(self.state.q.iter()) {
+                    *v = (b - a) / dt;
+                }
+                sink.sample(&Sample {
+                    step: self.step,
+                    t,
+                    q: self.state.q,
+                    qd,
+                });
+                self.state.q = next;
+                self.step += 1;
+                i += 1;
+            }
+        }
+        Ok(Ok(()))
+    }
+
+    /// At the node of sample `local` of segment `k`: one [`rk4_step`] to the next node,
+    /// its interpolant, and its range and rate folded into the extrema.
+    fn span_step(
+        &mut self,
+        task: &Task<N, K>,
+        k: u32,
+        local: u32,
+        frames: &mut DualFrames<N>,
+    ) -> Result<(), Error> {
+        let motion = task.motion();
+        let robot = task.robot();
+        let grid = motion.segment();
+        let (ab, inv_g) = self.law.weights(k as usize);
+        let ab = *ab;
+        let at = |t: f64, cols: &[[f64; N]; K]| {
+            Basis::<N, K>::from_columns(*cols).combine(&alpha(
+                &ab,
+                inv_g,
+                grid.tf(),
+                grid.degree(),
+                t,
+            ))
+        };
+        if self.step == 0 {
+            self.span.q = self.state.q;
+        }
+        let (t0, t1) = (grid.time(local), grid.time(local + motion.stride()));
+        let h = t1 - t0;
+        let q0 = self.span.q;
+        let mut q = q0;
+        let mut cols = *self.state.basis.columns();
+        rk4_step(t0, h, &mut q, &mut cols, |t, q, cols| {
+            let qd = at(t, cols);
+            let (a, a_dot) = coupling_rate(robot, frames, q, &qd);
+            Ok((qd, Basis::rate_of(cols, &a, &a_dot)?))
+        })
+        .map_err(rank_error(self.step + 1))?;
+        if !q.iter().chain(cols.iter().flatten()).all(|v| v.is_finite()) {
+            return Err(Error::NonFiniteState {
+                step: self.step + 1,
+            });
+        }
+        let v0 = at(t0, self.state.basis.columns());
+        let v1 = at(t1, &cols);
+        let p = Cubic::hermite(&q0, &v0, &q, &v1, h);
+        let (lo, hi) = p.range();
+        let s = &mut self.state;
+        for (((a, b), l), u) in s.q_min.iter_mut().zip(s.q_max.iter_mut()).zip(lo).zip(hi) {
+            *a = a.min(l);
+            *b = b.max(u);
+        }
+        s.max_abs_qd = s.max_abs_qd.max(p.rate_bound(h));
+        s.basis = Basis::<N, K>::reorthonormalized(cols).map_err(rank_error(self.step + 1))?;
+        self.span = Span { p, q };
+        Ok(())
+    }
+
     /// After the last step: the final sample at `t_f` (β(t_f) = 0 exactly, so q̇_S = 0) and
     /// the outcome.
     pub(crate) fn conclude<S: Sink<N>>(&mut self, task: &Task<N, K>, sink: &mut S) -> Outcome<N> {
@@ -501,6 +648,21 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         });
         self.state.fold(qd);
     }
+}
+
+/// The integrator step an [`Integrator::Rk4`] rollout is taking samples from: the
+/// interpolant of `q` over it and `q` at its last node (the integrator's state).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Span<const N: usize> {
+    p: Cubic<N>,
+    q: [f64; N],
+}
+
+impl<const N: usize> Span<N> {
+    const IDLE: Self = Self {
+        p: Cubic::IDLE,
+        q: [0.0; N],
+    };
 }
 
 /// Where an abandoned rollout stopped.

@@ -146,6 +146,65 @@ impl Family {
     }
 }
 
+/// How a rollout integrates the joint path and its null-space basis (spec §5, §14).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Deserialize, serde::Serialize),
+    serde(rename_all = "snake_case")
+)]
+pub enum Integrator {
+    /// The reference discretization: explicit Euler on the `dt` grid, the basis carried by
+    /// `MGS(P N)` (eq. 19, spec §3, §5). The paper's mode; golden records use it.
+    #[default]
+    Euler,
+    /// The continuous path of spec §14 integrated to fourth order: classical Runge–Kutta
+    /// on `(q, N)` with `q̇ = N α(t)` and `Ṅ = −A⁺ Ȧ N` (`Ȧ` exact, from [`crate::dual`]),
+    /// in steps of a whole number of `dt` ([`Motion::stride`]), and the samples on the `dt`
+    /// grid from a cubic Hermite dense output ([`crate::integrator`]).
+    Rk4,
+}
+
+impl Integrator {
+    /// Both integrators, in wire-code order.
+    pub const ALL: [Integrator; 2] = [Integrator::Euler, Integrator::Rk4];
+
+    /// The name used in task files and reports.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Integrator::Euler => "euler",
+            Integrator::Rk4 => "rk4",
+        }
+    }
+
+    /// The integrator of `name` ([`Integrator::name`]).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// Wire code (0 Euler, 1 RK4).
+    #[must_use]
+    pub const fn code(self) -> u8 {
+        match self {
+            Integrator::Euler => 0,
+            Integrator::Rk4 => 1,
+        }
+    }
+
+    /// The integrator of wire `code`.
+    #[must_use]
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.code() == code)
+    }
+}
+
+/// The default step of [`Integrator::Rk4`] (s): [`Motion::with_integrator`] takes the
+/// largest whole number of `dt` that divides a segment and is at most this.
+pub const RK4_STEP_S: f64 = 0.4;
+
 /// Duration and time grid of a motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -159,6 +218,10 @@ pub struct Motion {
     family: Family,
     /// `1..=MAX_SEGMENTS`, dividing `steps`.
     segments: u8,
+    integrator: Integrator,
+    /// Samples (steps of `dt`) per integrator step: 1 for Euler; for RK4 it divides a
+    /// segment's steps.
+    stride: u16,
 }
 
 impl Motion {
@@ -170,6 +233,8 @@ impl Motion {
         n: 1,
         family: Family::Paper,
         segments: 1,
+        integrator: Integrator::Euler,
+        stride: 1,
     };
 
     /// A motion of duration `tf_s` (s) integrated with step `dt_s` (s), time-law degree `n`.
@@ -213,6 +278,8 @@ impl Motion {
             n: n as u16,
             family: Family::Paper,
             segments: 1,
+            integrator: Integrator::Euler,
+            stride: 1,
         })
     }
 
@@ -263,10 +330,77 @@ impl Motion {
         if segments > 1 && self.family == Family::Paper {
             return Err(Error::NeedsOneSegment(NeedsOneSegment::PaperFamily));
         }
-        Ok(Self {
+        let cut = Self {
             segments: segments as u8,
             ..self
+        };
+        match self.integrator {
+            Integrator::Euler => Ok(cut),
+            Integrator::Rk4 => cut.with_integrator(Integrator::Rk4),
+        }
+    }
+
+    /// The same motion integrated by `integrator`, with its default step: 1 step of `dt`
+    /// for [`Integrator::Euler`]; for [`Integrator::Rk4`] the largest whole number of `dt`
+    /// that divides a segment's steps and is at most [`RK4_STEP_S`] (at least one `dt`).
+    ///
+    /// # Errors
+    /// None today; the same as [`Motion::with_integrator_stride`] for the stride chosen.
+    ///
+    /// ```
+    /// use reactionless::{Integrator, Motion};
+    /// let m = Motion::new(30.0, 0.01, 1).unwrap().with_integrator(Integrator::Rk4).unwrap();
+    /// assert_eq!((m.integrator(), m.stride()), (Integrator::Rk4, 40));
+    /// ```
+    pub fn with_integrator(self, integrator: Integrator) -> Result<Self, Error> {
+        let stride = match integrator {
+            Integrator::Euler => 1,
+            Integrator::Rk4 => {
+                let per = self.segment().steps();
+                let most = libm::floor(RK4_STEP_S / self.dt + 1e-9).max(1.0);
+                let most = if most >= f64::from(per) {
+                    per
+                } else {
+                    most as u32
+                };
+                // Bounded by `most ≤ per ≤ MAX_STEPS`; `1` always divides.
+                (1..=most).rev().find(|d| per % d == 0).unwrap_or(1)
+            }
+        };
+        Self { integrator, ..self }.with_integrator_stride(stride)
+    }
+
+    /// The same motion with `stride` samples (steps of `dt`) per integrator step.
+    ///
+    /// # Errors
+    /// [`Error::StrideUneven`] unless `stride` is 1 for [`Integrator::Euler`], or for
+    /// [`Integrator::Rk4`] at least 1, at most 65,535, and a divisor of each segment's
+    /// steps.
+    pub fn with_integrator_stride(self, stride: u32) -> Result<Self, Error> {
+        let per = self.segment().steps();
+        let fits = match self.integrator {
+            Integrator::Euler => stride == 1,
+            Integrator::Rk4 => stride >= 1 && stride <= u32::from(u16::MAX) && per % stride == 0,
+        };
+        if !fits {
+            return Err(Error::StrideUneven { stride });
+        }
+        Ok(Self {
+            stride: stride as u16,
+            ..self
         })
+    }
+
+    /// How the path is integrated.
+    #[must_use]
+    pub fn integrator(&self) -> Integrator {
+        self.integrator
+    }
+
+    /// Samples (steps of `dt`) per integrator step (1 for Euler).
+    #[must_use]
+    pub fn stride(&self) -> u32 {
+        u32::from(self.stride)
     }
 
     /// Number of segments (1 unless [`Motion::with_segments`]).

@@ -11,6 +11,7 @@
 //! cost is O(N); `H~b` is `Ī_1` plus the base. All quantities are in the frame of the
 //! [`Frames`] they come from (the base frame); units kg m².
 
+use crate::dual::Dual;
 use crate::error::Error;
 use crate::geometry::{Sym3, Vec3};
 use crate::kinematics::Frames;
@@ -140,6 +141,55 @@ pub fn coupling<const N: usize, T: Real>(
     }; N];
     let _ = backward_pass(robot, frames, &mut hbm, &mut subtrees);
     hbm
+}
+
+/// `H~bm` at `q` and its rate `dH~bm/dt` along joint rates `qd` (columns, kg m² and
+/// kg m²/s): the kinematics and [`coupling`] evaluated once in [`Dual`] numbers. The value
+/// part has the bits of [`coupling`] at `q`. `frames` is scratch (its end-effector fields
+/// are left as they were).
+///
+/// Verifies RL-CONT-001.
+///
+/// ```
+/// use reactionless::{CHASER7, Frames, Robot};
+/// use reactionless::momentum::{coupling, coupling_rate};
+/// let robot = Robot::new(&CHASER7).unwrap();
+/// let q = [0.3, -0.2, 0.5, 1.0, -0.4, 0.2, 0.1];
+/// let qd = [0.1, 0.2, -0.1, 0.05, 0.3, -0.2, 0.1];
+/// let (a, a_dot) = coupling_rate(&robot, &mut Default::default(), &q, &qd);
+/// assert_eq!(a, coupling(&robot, &Frames::new(&robot, &q)));
+/// let h = 1e-6;
+/// let at = |s: f64| coupling(&robot, &Frames::new(&robot, &core::array::from_fn(|i| q[i] + s * qd[i])));
+/// let (p, m) = (at(h), at(-h));
+/// for j in 0..7 {
+///     assert!(((p[j] - m[j]) / (2.0 * h) - a_dot[j]).norm() < 1e-7);
+/// }
+/// ```
+#[inline]
+#[must_use]
+pub fn coupling_rate<const N: usize>(
+    robot: &Robot<N>,
+    frames: &mut DualFrames<N>,
+    q: &[f64; N],
+    qd: &[f64; N],
+) -> ([Vec3; N], [Vec3; N]) {
+    let mut x = [Dual::ZERO; N];
+    for ((x, v), d) in x.iter_mut().zip(q.iter()).zip(qd.iter()) {
+        *x = Dual::new(*v, *d);
+    }
+    let _ = frames.0.update_chain(robot, &x);
+    let both = coupling(robot, &frames.0);
+    (both.map(|c| c.map(|x| x.v)), both.map(|c| c.map(|x| x.d)))
+}
+
+/// Scratch kinematics in [`Dual`] numbers for [`coupling_rate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DualFrames<const N: usize>(Frames<N, Dual>);
+
+impl<const N: usize> Default for DualFrames<N> {
+    fn default() -> Self {
+        Self(Frames::IDLE)
+    }
 }
 
 /// The generalized Jacobian `J_G` (6×N): end-effector linear (m/s, rows 1–3) and angular

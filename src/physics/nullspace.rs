@@ -182,6 +182,45 @@ impl<const N: usize, const K: usize, T: Real> Basis<N, K, T> {
         &self.cols
     }
 
+    /// `MGS(cols)`: the columns made orthonormal again in column order, without projecting
+    /// them (the continuous-path integrator's state drifts off orthonormality at its
+    /// order of accuracy; this puts it back on the invariant `NᵀN = I`).
+    ///
+    /// # Errors
+    /// [`RankLoss::Basis`] for a pivot at or below [`PIVOT_TOLERANCE`].
+    pub(crate) fn reorthonormalized(cols: [[f64; N]; K]) -> Result<Basis<N, K>, RankLoss> {
+        let mut cols = cols;
+        for i in 0..K {
+            let Some((done, rest)) = cols.split_at_mut_checked(i) else {
+                break;
+            };
+            let Some(v) = rest.first_mut() else {
+                break;
+            };
+            for u in done.iter() {
+                let c = dot(u, v);
+                for (vi, ui) in v.iter_mut().zip(u.iter()) {
+                    *vi -= c * *ui;
+                }
+            }
+            let norm = libm::sqrt(dot(v, v));
+            if !(norm > PIVOT_TOLERANCE) {
+                return Err(RankLoss::Basis);
+            }
+            let inv = 1.0 / norm;
+            for vi in v.iter_mut() {
+                *vi *= inv;
+            }
+        }
+        Ok(Basis { cols })
+    }
+
+    /// A basis of columns `cols` as given (the continuous-path integrator's state, whose
+    /// columns are orthonormal to its accuracy).
+    pub(crate) fn from_columns(cols: [[T; N]; K]) -> Self {
+        Self { cols }
+    }
+
     /// The basis vectors, to write lane by lane.
     pub(crate) fn columns_mut(&mut self) -> &mut [[T; N]; K] {
         &mut self.cols
@@ -232,6 +271,43 @@ impl<const N: usize, const K: usize> Basis<N, K> {
     #[inline(always)]
     pub fn transported(&self, a: &[Vec3; N]) -> Result<Self, RankLoss> {
         Self::orthonormalize(a, self.cols)
+    }
+
+    /// The basis of spec §14 moving with the path: `Ṅ = −A⁺ Ȧ N = −Aᵀ(AAᵀ)⁻¹ Ȧ N` for
+    /// `A = H~bm` (columns `a`) and its rate `ȧ` (per second), column by column. Keeps `A N`
+    /// at 0 (`d(AN)/dt = ȦN + AṄ = 0`) and `NᵀṄ = 0` (parallel transport: `Ṅ` lies in the
+    /// row space of `A`). Cost O(N·K): no Gram–Schmidt.
+    ///
+    /// # Errors
+    /// [`RankLoss::Coupling`] if `A` is rank-deficient (as [`Basis::transported`]).
+    #[inline(always)]
+    pub fn rate(&self, a: &[Vec3; N], a_dot: &[Vec3; N]) -> Result<[[f64; N]; K], RankLoss> {
+        Self::rate_of(&self.cols, a, a_dot)
+    }
+
+    /// [`Basis::rate`] of columns `cols` (orthonormal or not).
+    #[inline(always)]
+    pub(crate) fn rate_of(
+        cols: &[[f64; N]; K],
+        a: &[Vec3; N],
+        a_dot: &[Vec3; N],
+    ) -> Result<[[f64; N]; K], RankLoss> {
+        let (f, ok) = factor(a);
+        if !ok {
+            return Err(RankLoss::Coupling);
+        }
+        let mut out = [[0.0; N]; K];
+        for (o, col) in out.iter_mut().zip(cols.iter()) {
+            let mut x = Vec3::zeros();
+            for (c, v) in a_dot.iter().zip(col.iter()) {
+                x += c * *v;
+            }
+            let z = f.solve(&x);
+            for (oi, c) in o.iter_mut().zip(a.iter()) {
+                *oi = -c.dot(&z);
+            }
+        }
+        Ok(out)
     }
 
     #[inline(always)]

@@ -29,7 +29,8 @@ pub struct Args {
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        let lt = taskfile::load(&self.task)?;
+        let mut lt = taskfile::load(&self.task)?;
+        lt.set_integrator(self.planning.integrator)?;
         let block = task_block(&lt, &self.planning.overrides())?;
         write_file(&self.out, &block, FileKind::Block)?;
         eprintln!(

@@ -80,7 +80,8 @@ fn run(
             "--frame-budget 0: must be at least 1 integration step",
         ));
     }
-    let lt = taskfile::load(task_path)?;
+    let mut lt = taskfile::load(task_path)?;
+    lt.set_integrator(overrides.integrator)?;
     let frame_budget = frame_budget.unwrap_or(lt.file.planner.frame_budget);
     let report = with_dims!(lt.chain.dof(), frames_n, &lt, frame_budget, overrides)?;
     if json {

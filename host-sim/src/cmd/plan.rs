@@ -127,7 +127,8 @@ pub struct Args {
 impl Args {
     /// Runs the subcommand.
     pub fn run(self) -> Result<(), CliError> {
-        let lt = taskfile::load(&self.task)?;
+        let mut lt = taskfile::load(&self.task)?;
+        lt.set_integrator(self.planning.integrator)?;
         with_dims!(lt.chain.dof(), run_n, &lt, &self)
     }
 }

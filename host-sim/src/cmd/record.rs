@@ -34,7 +34,8 @@ impl Args {
 }
 
 fn record(task_path: &Path, out: &Path, planning: &PlanArgs) -> Result<(), CliError> {
-    let lt = taskfile::load(task_path)?;
+    let mut lt = taskfile::load(task_path)?;
+    lt.set_integrator(planning.integrator)?;
     let overrides = planning.overrides();
     let run = with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?;
     // The task text, with the URDF path made relative to where the record will live.

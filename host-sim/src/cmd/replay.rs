@@ -109,6 +109,7 @@ pub fn replay(path: &Path, rec: &Record) -> Result<(), CliError> {
         strategy: Some(strategy),
         refine_against: Some(refine_against),
         paper: true,
+        integrator: None,
     };
     let now = with_dims!(lt.chain.dof(), outputs_of, &lt, &overrides)?.outputs;
     let build = Build::current();

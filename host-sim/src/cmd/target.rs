@@ -580,7 +580,8 @@ impl Args {
     /// Runs the subcommand: one call per stage of the module's steps.
     pub fn run(self) -> Result<(), CliError> {
         let overrides = self.planning.overrides();
-        let lt = taskfile::load(&self.task)?;
+        let mut lt = taskfile::load(&self.task)?;
+        lt.set_integrator(self.planning.integrator)?;
         let settings = self
             .retime
             .then(|| retime_settings(&lt, self.accel_deg_s2, self.grid))

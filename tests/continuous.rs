@@ -1,0 +1,255 @@
+//! The second discretization (issue #32): the continuous path of spec §14 integrated by
+//! RK4 in steps of several `dt`, judged against that path, not against Euler's.
+//!
+//! Requirements: RL-CONT (docs/requirements.md).
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, missing_docs)]
+
+mod common;
+use common::*;
+use reactionless::momentum::coupling;
+use reactionless::{Error, Frames, Integrator, Motion, Outcome, Progress, Rollout, Sample, Task};
+
+fn task(motion: Motion) -> Task<7, 4> {
+    Task::new(robot(), q0(), TARGET, motion).unwrap()
+}
+
+fn euler(dt: f64) -> Task<7, 4> {
+    task(Motion::new(30.0, dt, 1).unwrap())
+}
+
+fn rk4(stride: u32) -> Task<7, 4> {
+    let m = Motion::new(30.0, 0.01, 1).unwrap();
+    task(
+        m.with_integrator(Integrator::Rk4)
+            .unwrap()
+            .with_integrator_stride(stride)
+            .unwrap(),
+    )
+}
+
+fn end(t: &Task<7, 4>) -> [f64; 3] {
+    let o = t.rollout(&ETA_HAT, &mut ()).unwrap();
+    o.end_pose.position
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The reference discretization converges, at first order, to the path RK4 integrates (so
+/// `Ṅ = −A⁺ȦN` is the limit of `MGS(P N)`, checked by an integrator that does not use it);
+/// RK4 converges at fourth order, and its default step is within 1e-8 m of the path.
+/// Verifies RL-CONT-002.
+#[test]
+fn rk4_integrates_the_limit_of_the_reference_discretization() {
+    // The continuous path, to ~1e-12 m: RK4 at h = dt = 0.01 s.
+    let path = end(&rk4(1));
+    let e: Vec<f64> = [0.01, 0.005, 0.0025]
+        .iter()
+        .map(|&dt| dist(&end(&euler(dt)), &path))
+        .collect();
+    println!("Euler end position off the path: {e:?}");
+    assert!((5e-5..2e-4).contains(&e[0]), "{e:?}");
+    for w in e.windows(2) {
+        assert!((1.8..2.2).contains(&(w[0] / w[1])), "first order: {e:?}");
+    }
+    let r: Vec<f64> = [10, 20, 40]
+        .iter()
+        .map(|&s| dist(&end(&rk4(s)), &path))
+        .collect();
+    println!("RK4 (strides 10, 20, 40) end position off the path: {r:?}");
+    for w in r.windows(2) {
+        assert!((10.0..22.0).contains(&(w[1] / w[0])), "fourth order: {r:?}");
+    }
+    let default = Motion::new(30.0, 0.01, 1)
+        .unwrap()
+        .with_integrator(Integrator::Rk4)
+        .unwrap();
+    assert_eq!(default.stride(), 40);
+    assert!(r[2] <= 1e-8, "{r:?}");
+}
+
+/// The basis RK4 carries stays orthonormal (Gram–Schmidt at each node puts it back on
+/// `NᵀN = I`) and in the null space of `H~bm` to the integrator's accuracy.
+/// Verifies RL-CONT-002.
+#[test]
+fn rk4_basis_stays_orthonormal_in_the_null_space() {
+    let t = rk4(40);
+    let mut r = Rollout::new(&t, &ETA_HAT).unwrap();
+    let o = match r.advance(&t, u32::MAX, &mut ()).unwrap() {
+        Progress::Done(o) => o,
+        p => panic!("{p:?}"),
+    };
+    let a = coupling(t.robot(), &Frames::new(t.robot(), &o.q_final));
+    let cols = r.basis().columns();
+    let scale = a.iter().map(|c| c.norm_squared()).sum::<f64>().sqrt();
+    for (i, ci) in cols.iter().enumerate() {
+        for (j, cj) in cols.iter().enumerate() {
+            let d: f64 = ci.iter().zip(cj).map(|(x, y)| x * y).sum();
+            let want = if i == j { 1.0 } else { 0.0 };
+            assert!((d - want).abs() < 1e-9, "NᵀN[{i}][{j}] = {d}");
+        }
+        let an: f64 = a
+            .iter()
+            .zip(ci)
+            .map(|(c, v)| c * *v)
+            .sum::<nalgebra::Vector3<f64>>()
+            .norm();
+        // Off the null space by the integrator's error (relative to ‖A‖_F).
+        assert!(an < 1e-7 * scale, "|A n_{i}| = {an}, ‖A‖ = {scale}");
+    }
+}
+
+fn hashed(t: &Task<7, 4>, budget: u32, sampled: bool) -> (Outcome<7>, u64, u32) {
+    let mut r = Rollout::new(t, &ETA_HAT).unwrap();
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut n = 0;
+    let mut sink = |s: &Sample<7>| {
+        n += 1;
+        for v in core::iter::once(s.t).chain(s.q).chain(s.qd) {
+            for b in v.to_bits().to_le_bytes() {
+                hash = (hash ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    };
+    // Every other call discards its samples when `sampled` is false.
+    let mut call = 0u32;
+    loop {
+        call += 1;
+        let p = if sampled || call % 2 == 0 {
+            r.advance(t, budget, &mut sink).unwrap()
+        } else {
+            r.advance(t, budget, &mut ()).unwrap()
+        };
+        if let Progress::Done(o) = p {
+            return (o, hash, n);
+        }
+    }
+}
+
+fn bits(o: &Outcome<7>) -> Vec<u64> {
+    o.q_final
+        .iter()
+        .chain(&o.joint_min)
+        .chain(&o.joint_max)
+        .chain(&o.end_pose.position)
+        .chain(&o.end_pose.quat_wxyz)
+        .chain(&[o.phi, o.f, o.g, o.max_abs_qd])
+        .map(|v| v.to_bits())
+        .collect()
+}
+
+/// An RK4 rollout gives the same samples and outcome bit for bit whatever the budget of
+/// each call (within an integrator step, across one, all at once), and the same outcome
+/// whether its samples are taken or discarded.
+/// Verifies RL-CONT-004.
+#[test]
+fn rk4_rollout_is_bit_identical_under_any_slicing_and_sink() {
+    let t = rk4(40);
+    let (reference, hash, n) = hashed(&t, u32::MAX, true);
+    assert_eq!(n, 3001);
+    assert_eq!(
+        bits(&t.rollout(&ETA_HAT, &mut ()).unwrap()),
+        bits(&reference)
+    );
+    for budget in [1, 7, 39, 40, 41, 1000, 2999] {
+        let (o, h, n) = hashed(&t, budget, true);
+        assert_eq!(bits(&o), bits(&reference), "budget {budget}");
+        assert_eq!((h, n), (hash, 3001), "samples, budget {budget}");
+        let (o, _, _) = hashed(&t, budget, false);
+        assert_eq!(
+            bits(&o),
+            bits(&reference),
+            "budget {budget}, samples discarded"
+        );
+    }
+}
+
+/// The written samples lie within the reported joint extrema and rate bound (those of the
+/// dense output over every step), follow `q' = q + dt·q̇` to rounding, end at `q_final` and
+/// at rest, and the rate bound is below the rate limit.
+/// Verifies RL-CONT-003.
+#[test]
+fn rk4_samples_lie_within_the_reported_extrema_and_rate() {
+    let t = rk4(40);
+    let mut samples = Vec::new();
+    let o = t
+        .rollout(&ETA_HAT, &mut |s: &Sample<7>| samples.push(*s))
+        .unwrap();
+    for s in &samples {
+        for j in 0..7 {
+            assert!(
+                o.joint_min[j] <= s.q[j] && s.q[j] <= o.joint_max[j],
+                "sample {}",
+                s.step
+            );
+            assert!(
+                s.qd[j].abs() <= o.max_abs_qd * (1.0 + 1e-12),
+                "sample {}",
+                s.step
+            );
+        }
+    }
+    for w in samples.windows(2) {
+        for j in 0..7 {
+            let next = w[0].q[j] + 0.01 * w[0].qd[j];
+            assert!((next - w[1].q[j]).abs() < 1e-14, "row {}", w[0].step);
+        }
+    }
+    let last = samples.last().unwrap();
+    assert_eq!(last.q, o.q_final);
+    assert_eq!(last.qd, [0.0; 7]);
+    assert_eq!(last.t, 30.0);
+    assert!(o.max_abs_qd <= t.robot().qd_max() * (1.0 + 1e-9));
+}
+
+/// A stride must divide each segment's steps; Euler's is one `dt`; the default follows a
+/// segment's length.
+/// Verifies RL-CONT-005.
+#[test]
+fn the_integrator_step_is_validated() {
+    let m = Motion::new(30.0, 0.01, 1).unwrap();
+    assert_eq!(m.integrator(), Integrator::Euler);
+    assert_eq!(m.stride(), 1);
+    let rk = m.with_integrator(Integrator::Rk4).unwrap();
+    assert_eq!(
+        rk.with_integrator_stride(7),
+        Err(Error::StrideUneven { stride: 7 })
+    );
+    assert_eq!(
+        rk.with_integrator_stride(0),
+        Err(Error::StrideUneven { stride: 0 })
+    );
+    assert_eq!(
+        m.with_integrator_stride(2),
+        Err(Error::StrideUneven { stride: 2 })
+    );
+    assert_eq!(rk.with_integrator_stride(3000).unwrap().stride(), 3000);
+    let four = m
+        .with_family(reactionless::Family::FreeAmplitude)
+        .with_segments(4)
+        .unwrap()
+        .with_integrator(Integrator::Rk4)
+        .unwrap();
+    // 750 steps per segment: the largest divisor up to 40 is 30.
+    assert_eq!(four.stride(), 30);
+    assert_eq!(Integrator::from_name("rk4"), Some(Integrator::Rk4));
+    assert_eq!(Integrator::from_code(1), Some(Integrator::Rk4));
+    assert_eq!(Integrator::from_code(2), None);
+}
+
+/// Lanes integrate with Euler only: loading an RK4 task is refused, not silently Euler.
+/// Verifies RL-CONT-005.
+#[test]
+fn lanes_refuse_an_rk4_task() {
+    let t = rk4(40);
+    let mut b = reactionless::batch::Batch::<7, 4, 4>::IDLE;
+    assert_eq!(
+        b.load(0, &t, &ETA_HAT, f64::INFINITY),
+        Err(Error::NeedsEuler)
+    );
+}

@@ -32,6 +32,22 @@ fn end(t: &Task<7, 4>) -> [f64; 3] {
     o.end_pose.position
 }
 
+/// The angle between the end-effector attitudes of two rollouts (deg).
+fn angle_deg(a: &Task<7, 4>, b: &Task<7, 4>) -> f64 {
+    let (pa, pb) = (
+        a.rollout(&ETA_HAT, &mut ()).unwrap().end_pose.quat_wxyz,
+        b.rollout(&ETA_HAT, &mut ()).unwrap().end_pose.quat_wxyz,
+    );
+    let qa = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        pa[0], pa[1], pa[2], pa[3],
+    ));
+    let qb = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        pb[0], pb[1], pb[2], pb[3],
+    ));
+    let d = qa.inverse() * qb;
+    (2.0 * d.imag().norm().asin()).to_degrees()
+}
+
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a.iter()
         .zip(b)
@@ -71,6 +87,10 @@ fn rk4_integrates_the_limit_of_the_reference_discretization() {
         .unwrap();
     assert_eq!(default.stride(), 40);
     assert!(r[2] <= 1e-8, "{r:?}");
+    let euler_deg = angle_deg(&euler(0.01), &rk4(1));
+    let rk4_deg = angle_deg(&rk4(40), &rk4(1));
+    println!("end attitude off the path: Euler {euler_deg:e} deg, RK4 stride 40 {rk4_deg:e} deg");
+    assert!(rk4_deg <= 1e-6 && euler_deg > 1e-3, "{rk4_deg} {euler_deg}");
 }
 
 /// The basis RK4 carries stays orthonormal (Gram–Schmidt at each node puts it back on
@@ -80,9 +100,8 @@ fn rk4_integrates_the_limit_of_the_reference_discretization() {
 fn rk4_basis_stays_orthonormal_in_the_null_space() {
     let t = rk4(40);
     let mut r = Rollout::new(&t, &ETA_HAT).unwrap();
-    let o = match r.advance(&t, u32::MAX, &mut ()).unwrap() {
-        Progress::Done(o) => o,
-        p => panic!("{p:?}"),
+    let Progress::Done(o) = r.advance(&t, u32::MAX, &mut ()).unwrap() else {
+        unreachable!("an unlimited budget finishes")
     };
     let a = coupling(t.robot(), &Frames::new(t.robot(), &o.q_final));
     let cols = r.basis().columns();

@@ -190,6 +190,7 @@ fn a_task_block_carries_the_segments() {
         n: 1,
         family: Family::FreeAmplitude,
         segments: 4,
+        rk4_stride: 0,
         planner: config(40),
         retime: None,
         two_phase: None,

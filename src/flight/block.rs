@@ -21,7 +21,7 @@
 //! | 6·8 | end effector: xyz, rpy |
 //! | N·8 | start q₀ (rad) |
 //! | 7·8 | target: position (m), quaternion `[w, x, y, z]` |
-//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–15 the degree, bits 16–23 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 24–31 the segment count less one, [`Motion::with_segments`]) |
+//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–7 the degree; bits 8–15 the integrator, 0 for Euler or RK4's stride `1..=255` ([`Motion::with_integrator_stride`]); bits 16–23 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 24–31 the segment count less one, [`Motion::with_segments`]) |
 //! | 4 + 4 | particles, max_iterations (u32) |
 //! | 6·8 | c1, c2, w_max, w_min, tolerance, eta_bound |
 //! | 8 | seed (u64) |
@@ -37,14 +37,14 @@
 //! two-phase, `RLTASK05` both. A block without them is written with magic `RLTASK02` and is
 //! byte for byte what earlier versions wrote; [`decode`] reads all four. A block of the
 //! paper's family has family bits 0, so blocks written before the family existed read as
-//! the paper's; likewise one segment has segment bits 0.
+//! the paper's; likewise one segment has segment bits 0, and Euler integrator bits 0.
 
 use crate::config::{PlannerConfig, RefineAgainst, StagnationConfig, Strategy};
 use crate::error::{BlockFault, Error};
 use crate::geometry::Pose;
 use crate::model::{BodyDesc, Inertia, JointDesc, Origin, RobotDesc};
 use crate::planner::Planner;
-use crate::trajectory::{Family, Motion};
+use crate::trajectory::{Family, Integrator, Motion};
 use crate::twophase::{TwoPhaseConfig, TwoPhaseSearch};
 
 /// The block's magic bytes (`01` had no strategy, budget or refinement target).
@@ -160,6 +160,9 @@ pub struct TaskBlock<const N: usize> {
     pub family: Family,
     /// Segments of the motion ([`Motion::with_segments`], `1..=`[`crate::MAX_SEGMENTS`]).
     pub segments: u32,
+    /// How rollouts integrate the path: 0 for [`Integrator::Euler`], or the samples per
+    /// step of [`Integrator::Rk4`] (`1..=255`, [`Motion::with_integrator_stride`]).
+    pub rk4_stride: u32,
     /// Planner settings (with the frame budget: integration steps the flight software
     /// gives the planner per frame).
     pub planner: PlannerConfig,
@@ -184,9 +187,11 @@ impl<const N: usize> TaskBlock<N> {
         planner: &mut Planner<N, K, P>,
     ) -> Result<(), Error> {
         let loaded = Motion::new(self.tf_s, self.dt_s, self.n).and_then(|motion| {
-            let motion = motion
-                .with_family(self.family)
-                .with_segments(self.segments)?;
+            let motion = self.integrate(
+                motion
+                    .with_family(self.family)
+                    .with_segments(self.segments)?,
+            )?;
             planner
                 .task_mut()
                 .init(&self.robot, self.q0, self.target, motion)
@@ -202,6 +207,16 @@ impl<const N: usize> TaskBlock<N> {
 }
 
 impl<const N: usize> TaskBlock<N> {
+    /// `motion` integrated as the block says ([`TaskBlock::rk4_stride`]).
+    fn integrate(&self, motion: Motion) -> Result<Motion, Error> {
+        match self.rk4_stride {
+            0 => Ok(motion),
+            stride => motion
+                .with_integrator(Integrator::Rk4)?
+                .with_integrator_stride(stride),
+        }
+    }
+
     /// Gives `search` this block's task and two-phase settings, building the task in place
     /// (nothing task-sized passes through the stack), and starts it with the planner's
     /// seed: how flight software loads a two-phase block into a statically allocated
@@ -218,9 +233,11 @@ impl<const N: usize> TaskBlock<N> {
             None => Err(Error::NotTwoPhase),
             Some(config) => Motion::new(self.tf_s, self.dt_s, self.n)
                 .and_then(|motion| {
-                    let motion = motion
-                        .with_family(self.family)
-                        .with_segments(self.segments)?;
+                    let motion = self.integrate(
+                        motion
+                            .with_family(self.family)
+                            .with_segments(self.segments)?,
+                    )?;
                     search
                         .task_mut()
                         .init(&self.robot, self.q0, self.target, motion)
@@ -373,11 +390,12 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     w.f64s(&block.target.quat_wxyz);
     w.f64(block.tf_s);
     w.f64(block.dt_s);
-    if block.n > u32::from(u16::MAX) {
+    if block.n > 0xFF || block.rk4_stride > 0xFF {
         return Err(Error::Block(BlockFault::Field));
     }
     w.u32(
         block.n
+            | (block.rk4_stride << 8)
             | (u32::from(block.family.code()) << 16)
             | (block.segments.saturating_sub(1).min(0xFF) << 24),
     );
@@ -498,7 +516,8 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let tf_s = r.f64()?;
     let dt_s = r.f64()?;
     let degree_family = r.u32()?;
-    let n = degree_family & 0xFFFF;
+    let n = degree_family & 0xFF;
+    let rk4_stride = (degree_family >> 8) & 0xFF;
     let family = u8::try_from((degree_family >> 16) & 0xFF)
         .ok()
         .and_then(Family::from_code)
@@ -579,6 +598,7 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         n,
         family,
         segments,
+        rk4_stride,
         planner: PlannerConfig {
             strategy,
             max_rollouts,
@@ -627,6 +647,7 @@ mod tests {
             n: 1,
             family: Family::Paper,
             segments: 1,
+            rk4_stride: 0,
             planner,
             retime: None,
             two_phase: None,
@@ -733,6 +754,48 @@ mod tests {
         let crc = crc32(&b[..len - 4]);
         b[len - 4..len].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(decode::<7>(&b[..len]), Err(Error::Block(BlockFault::Field)));
+    }
+
+    /// RK4's stride rides in bits 8–15 of the degree word: an RK4 block round-trips,
+    /// differs from Euler's only in that byte (and the CRC), and loads a planner whose task
+    /// integrates by RK4 with that stride; a stride that does not divide the steps is the
+    /// motion's error.
+    /// Verifies RL-CONT-007.
+    #[test]
+    fn the_rk4_stride_rides_in_the_degree_word() {
+        let rk4 = TaskBlock {
+            rk4_stride: 40,
+            ..block()
+        };
+        let (mut a, mut b) = ([0u8; 4096], [0u8; 4096]);
+        let len = encode(&block(), &mut a).unwrap();
+        assert_eq!(encode(&rk4, &mut b).unwrap(), len);
+        assert_eq!(decode::<7>(&b[..len]).unwrap(), rk4);
+        let word = 16 + 13 * 8 + 7 * 12 * 8 + 7 * 13 * 8 + 6 * 8 + 7 * 8 + 7 * 8 + 2 * 8;
+        assert_eq!(
+            u32::from_le_bytes(b[word..word + 4].try_into().unwrap()),
+            1 | 40 << 8
+        );
+        for i in (0..len - 4).filter(|&i| i != word + 1) {
+            assert_eq!(a[i], b[i], "byte {i}");
+        }
+        let mut planner = Planner::<7, 4, 64>::IDLE;
+        rk4.load_into(&mut planner).unwrap();
+        let m = planner.task().motion();
+        assert_eq!((m.integrator(), m.stride()), (Integrator::Rk4, 40));
+        let odd = TaskBlock {
+            rk4_stride: 7,
+            ..block()
+        };
+        assert_eq!(
+            odd.load_into(&mut planner),
+            Err(Error::StrideUneven { stride: 7 })
+        );
+        let wide = TaskBlock {
+            rk4_stride: 256,
+            ..block()
+        };
+        assert_eq!(encode(&wide, &mut b), Err(Error::Block(BlockFault::Field)));
     }
 
     /// A two-phase block is written as `RLTASK04` (with re-timing settings `RLTASK05`),

@@ -88,32 +88,44 @@ pub fn midpoint_substep<const N: usize>(
 /// The rates of the continuous path's state `(q, N)`: `(q̇, Ṅ)` (rad/s, 1/s).
 pub type Rates<const N: usize, const K: usize> = ([f64; N], [[f64; N]; K]);
 
-/// `y + c·k` for the state `(q, cols)` and its rates `k`.
+/// `out ← y + c·k` for the state `y = (q, cols)` and its rates `k`.
 #[inline(always)]
 fn offset<const N: usize, const K: usize>(
+    out: &mut Rates<N, K>,
     q: &[f64; N],
     cols: &[[f64; N]; K],
     c: f64,
     k: &Rates<N, K>,
-) -> ([f64; N], [[f64; N]; K]) {
-    let mut q2 = *q;
-    for (x, v) in q2.iter_mut().zip(k.0.iter()) {
-        *x += c * *v;
+) {
+    for ((o, x), v) in out.0.iter_mut().zip(q.iter()).zip(k.0.iter()) {
+        *o = *x + c * *v;
     }
-    let mut n2 = *cols;
-    for (col, dcol) in n2.iter_mut().zip(k.1.iter()) {
-        for (x, v) in col.iter_mut().zip(dcol.iter()) {
-            *x += c * *v;
+    for ((ocol, col), dcol) in out.1.iter_mut().zip(cols.iter()).zip(k.1.iter()) {
+        for ((o, x), v) in ocol.iter_mut().zip(col.iter()).zip(dcol.iter()) {
+            *o = *x + c * *v;
         }
     }
-    (q2, n2)
+}
+
+/// `acc ← acc + w·k`, component by component.
+#[inline(always)]
+fn accumulate<const N: usize, const K: usize>(acc: &mut Rates<N, K>, w: f64, k: &Rates<N, K>) {
+    for (a, v) in acc.0.iter_mut().zip(k.0.iter()) {
+        *a += w * *v;
+    }
+    for (acol, kcol) in acc.1.iter_mut().zip(k.1.iter()) {
+        for (a, v) in acol.iter_mut().zip(kcol.iter()) {
+            *a += w * *v;
+        }
+    }
 }
 
 /// One classical Runge–Kutta step of length `h` (s) from time `t` (s) of the state `q`
 /// (rad) and `cols` (the basis columns), in place, for `ẏ = f(t, y)`:
 /// `k₁ = f(t, y)`, `k₂ = f(t + h/2, y + h/2·k₁)`, `k₃ = f(t + h/2, y + h/2·k₂)`,
-/// `k₄ = f(t + h, y + h·k₃)`, `y ← y + h/6·(k₁ + 2k₂ + 2k₃ + k₄)`, each component in that
-/// order (four evaluations of `f`, no FMA: the same bits on every target).
+/// `k₄ = f(t + h, y + h·k₃)`, `y ← y + h/6·(((k₁ + 2k₂) + 2k₃) + k₄)`, each component in
+/// that order (four evaluations of `f`, no FMA: the same bits on every target). Three
+/// states live at a time (the stage, its rates, the running sum), for a small stack.
 ///
 /// # Errors
 /// The first error of `f`; `q` and `cols` are then unchanged.
@@ -137,32 +149,24 @@ pub fn rk4_step<const N: usize, const K: usize, E>(
     mut f: impl FnMut(f64, &[f64; N], &[[f64; N]; K]) -> Result<Rates<N, K>, E>,
 ) -> Result<(), E> {
     let half = 0.5 * h;
-    let k1 = f(t, q, cols)?;
-    let (q2, n2) = offset(q, cols, half, &k1);
-    let k2 = f(t + half, &q2, &n2)?;
-    let (q3, n3) = offset(q, cols, half, &k2);
-    let k3 = f(t + half, &q3, &n3)?;
-    let (q4, n4) = offset(q, cols, h, &k3);
-    let k4 = f(t + h, &q4, &n4)?;
+    let mut acc = f(t, q, cols)?;
+    let mut stage = acc;
+    offset(&mut stage, q, cols, half, &acc);
+    let k = f(t + half, &stage.0, &stage.1)?;
+    offset(&mut stage, q, cols, half, &k);
+    accumulate(&mut acc, 2.0, &k);
+    let k = f(t + half, &stage.0, &stage.1)?;
+    offset(&mut stage, q, cols, h, &k);
+    accumulate(&mut acc, 2.0, &k);
+    let k = f(t + h, &stage.0, &stage.1)?;
+    accumulate(&mut acc, 1.0, &k);
     let sixth = h / 6.0;
-    let mix = |a: f64, b: f64, c: f64, d: f64| sixth * (a + 2.0 * b + 2.0 * c + d);
-    for (i, x) in q.iter_mut().enumerate() {
-        if let (Some(a), Some(b), Some(c), Some(d)) =
-            (k1.0.get(i), k2.0.get(i), k3.0.get(i), k4.0.get(i))
-        {
-            *x += mix(*a, *b, *c, *d);
-        }
+    for (x, a) in q.iter_mut().zip(acc.0.iter()) {
+        *x += sixth * *a;
     }
-    for (j, col) in cols.iter_mut().enumerate() {
-        let (Some(a), Some(b), Some(c), Some(d)) =
-            (k1.1.get(j), k2.1.get(j), k3.1.get(j), k4.1.get(j))
-        else {
-            continue;
-        };
-        for (i, x) in col.iter_mut().enumerate() {
-            if let (Some(a), Some(b), Some(c), Some(d)) = (a.get(i), b.get(i), c.get(i), d.get(i)) {
-                *x += mix(*a, *b, *c, *d);
-            }
+    for (col, acol) in cols.iter_mut().zip(acc.1.iter()) {
+        for (x, a) in col.iter_mut().zip(acol.iter()) {
+            *x += sixth * *a;
         }
     }
     Ok(())

@@ -204,7 +204,9 @@ impl<const N: usize, const K: usize, T: Real> Basis<N, K, T> {
                 }
             }
             let norm = libm::sqrt(dot(v, v));
-            if !(norm > PIVOT_TOLERANCE) {
+            // A NaN norm fails too.
+            let pivots = norm > PIVOT_TOLERANCE;
+            if !pivots {
                 return Err(RankLoss::Basis);
             }
             let inv = 1.0 / norm;

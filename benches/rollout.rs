@@ -1,12 +1,13 @@
 //! Criterion benchmarks of the core's hot path on the reference task (spec §8):
-//! one integration step and one full rollout (3000 steps).
+//! one integration step and one full rollout (3000 steps), and the same rollout by RK4
+//! (issue #32: 75 steps of 0.4 s, the samples not taken).
 //!
 //! `cargo bench --bench rollout`
 #![allow(missing_docs, clippy::unwrap_used)]
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use reactionless::Rollout;
 use reactionless::reference::{ETA_HAT, paper_task};
+use reactionless::{Integrator, Rollout, Task};
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
@@ -24,6 +25,12 @@ fn bench(c: &mut Criterion) {
     });
     c.bench_function("rollout_3000_steps", |b| {
         b.iter(|| black_box(task.rollout(black_box(&ETA_HAT), &mut ()).unwrap()))
+    });
+    let motion = task.motion().with_integrator(Integrator::Rk4).unwrap();
+    let rk4: Task<7, 4> =
+        Task::new(task.robot().clone(), *task.start(), *task.target(), motion).unwrap();
+    c.bench_function("rollout_rk4_75_steps", |b| {
+        b.iter(|| black_box(rk4.rollout(black_box(&ETA_HAT), &mut ()).unwrap()))
     });
 }
 

@@ -10,7 +10,8 @@
 #   scripts/bless-records.sh paper arm12-ms  # only these
 #
 # Each line: record name, task file, seed, refinement tolerance ("-" for none), strategy,
-# what refinement drives (planner or truth). Every record is made with --paper (success at
+# what refinement drives (planner or truth), and optionally the integrator (`rk4`; Euler,
+# the reference discretization, when absent). Every record is made with --paper (success at
 # σ_e, refined only to the listed tolerance), the settings they were first blessed with,
 # whatever the goal's defaults are. A task with [preshape] is recorded as a two-phase plan,
 # the listed tolerance being the search's (the two-* records: 1e-6, the default goal's).
@@ -19,12 +20,13 @@ cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
 H=target/release/host-sim
 want=" $* "
-while read -r name task seed refine strategy against; do
+while read -r name task seed refine strategy against integrator; do
   [ -z "$name" ] && continue
   if [ $# -gt 0 ] && [[ "$want" != *" $name "* ]]; then continue; fi
   args=(record "$task" --paper --seed "$seed" --strategy "$strategy"
         --refine-against "$against" --out "tests/records/$name.json")
   [ "$refine" != "-" ] && args+=(--refine-tolerance "$refine")
+  [ -n "${integrator:-}" ] && args+=(--integrator "$integrator")
   "$H" "${args[@]}"
 done <<'LIST'
 paper             spec/tasks/paper.toml                      1  1e-6  cpso        planner
@@ -38,6 +40,8 @@ chaser7-a005-ms   tests/tasks/a/chaser7/task_005.toml        3  -     multistart
 arm9-a007-ms      tests/tasks/a/arm9/task_007.toml           1  1e-9  multistart  planner
 arm12-a003-ms     tests/tasks/a/arm12/task_003.toml          4  -     multistart  planner
 arm6-a010-ms      tests/tasks/a/arm6/task_010.toml           5  1e-9  multistart  truth
+paper-rk4-ms      spec/tasks/paper.toml                      1  1e-9  multistart  planner  rk4
+paper-rk4         spec/tasks/paper.toml                      1  1e-6  cpso        planner  rk4
 fixed-ref0-fa     tests/tasks/fixed/ref/1cm/ref-0.toml       1  1e-9  multistart  planner
 two-chaser7-j20   tests/tasks/g/chaser7/joint20/task_001.toml 1  1e-6  multistart  planner
 two-arm12-j30     tests/tasks/g/arm12/joint30/task_001.toml  1  1e-6  multistart  planner

@@ -228,6 +228,7 @@ fn proto<const N: usize, const K: usize>(
         strategy: None,
         refine_against: Some(RefineAgainst::Truth),
         paper: true,
+        integrator: None,
     };
     let mut config = lt.planner(HOST_CAPACITY, &overrides)?;
     config.refine_max_rollouts = 1;

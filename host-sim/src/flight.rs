@@ -94,6 +94,7 @@ pub fn task_block_retimed(
         n: lt.file.motion.n,
         family: lt.file.motion.family,
         segments: lt.file.motion.segments,
+        rk4_stride: rk4_stride(lt)?,
         planner,
         retime,
         two_phase,
@@ -102,6 +103,22 @@ pub fn task_block_retimed(
     let len = encode(&block, &mut buf).or_internal(|| "task block")?;
     buf.truncate(len);
     Ok(buf)
+}
+
+/// The block's integrator field ([`TaskBlock::rk4_stride`]): 0 for Euler, else RK4's
+/// samples per step, at most 255 in a block.
+fn rk4_stride(lt: &LoadedTask) -> Result<u32, CliError> {
+    let motion = lt.motion()?;
+    match motion.integrator() {
+        reactionless::Integrator::Euler => Ok(0),
+        reactionless::Integrator::Rk4 if motion.stride() <= 0xFF => Ok(motion.stride()),
+        reactionless::Integrator::Rk4 => Err(CliError::input(format!(
+            "{}: [motion] integrator_step_s = {} s is {} steps of dt; a task block carries at most 255",
+            lt.path.display(),
+            f64::from(motion.stride()) * motion.dt(),
+            motion.stride()
+        ))),
+    }
 }
 
 /// What the flight image reports for a two-phase block of `lt` (firmware/src/main.rs,

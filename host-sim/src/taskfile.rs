@@ -8,8 +8,8 @@ use crate::error::{CliError, Context};
 use crate::goal::{Asked, Goal};
 use crate::urdf::{self, Chain};
 use reactionless::{
-    Error as CoreError, Family, Integrator, Motion, Param, PlannerConfig, Pose, RefineAgainst, Robot, Strategy,
-    Task,
+    Error as CoreError, Family, Integrator, Motion, Param, PlannerConfig, Pose, RefineAgainst,
+    Robot, Strategy, Task,
 };
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -935,7 +935,12 @@ impl LoadedTask {
             .with_segments(m.segments)
             .map_err(|e| self.err(format!("[motion] segments = {}: {e}", m.segments)))?
             .with_integrator(m.integrator)
-            .map_err(|e| self.err(format!("[motion] integrator = {:?}: {e}", m.integrator.name())))?;
+            .map_err(|e| {
+                self.err(format!(
+                    "[motion] integrator = {:?}: {e}",
+                    m.integrator.name()
+                ))
+            })?;
         let Some(step) = m.integrator_step_s else {
             return Ok(motion);
         };
@@ -945,7 +950,10 @@ impl LoadedTask {
         }
         let ratio = step / m.dt_s;
         let stride = ratio.round();
-        if !(step.is_finite() && step > 0.0) || (stride - ratio).abs() > 1e-9 * ratio || stride > f64::from(u32::MAX) {
+        if !(step.is_finite() && step > 0.0)
+            || (stride - ratio).abs() > 1e-9 * ratio
+            || stride > f64::from(u32::MAX)
+        {
             return Err(self.err(format!(
                 "{key}: must be a whole multiple of dt_s = {} s",
                 m.dt_s
@@ -975,7 +983,10 @@ impl LoadedTask {
         let mut table: toml::Table =
             toml::from_str(&self.text).or_internal(|| "re-reading the task")?;
         if let Some(toml::Value::Table(motion)) = table.get_mut("motion") {
-            motion.insert("integrator".into(), toml::Value::String(integrator.name().into()));
+            motion.insert(
+                "integrator".into(),
+                toml::Value::String(integrator.name().into()),
+            );
             if integrator == Integrator::Euler {
                 motion.remove("integrator_step_s");
                 self.file.motion.integrator_step_s = None;

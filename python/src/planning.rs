@@ -359,6 +359,7 @@ pub fn plan(
             strategy,
             refine_against,
             paper,
+            integrator: None,
         },
         max_rollouts,
     };

@@ -47,8 +47,14 @@ pub struct BenchJson {
     pub plans: Vec<PlanRun>,
     /// The build of the lane kernel that ran (`sse2`, `avx2`).
     pub isa: String,
-    /// Rollouts in lanes, per rollout-equivalent.
+    /// Rollouts in lanes, per rollout-equivalent (none for an RK4 task: lanes integrate
+    /// with Euler only).
     pub lanes: Vec<LanesRun>,
+    /// How the task's rollouts integrate: `"euler"` or `"rk4"`.
+    pub integrator: String,
+    /// RK4 tasks: median time of the same η's rollout by the reference Euler
+    /// discretization in the same run (µs); `rollout_us` over it is the cost ratio.
+    pub euler_rollout_us: Option<f64>,
 }
 
 /// Rollouts integrated side by side.
@@ -95,6 +101,10 @@ pub struct Args {
     /// What the timed plans must reach (the task's goal by default).
     #[command(flatten)]
     goal: GoalArgs,
+    /// How rollouts integrate the path: euler or rk4 (overrides `[motion] integrator`); an
+    /// RK4 task also times the same η by Euler, for the ratio.
+    #[arg(long, value_parser = crate::args::parse_integrator)]
+    integrator: Option<reactionless::Integrator>,
 }
 
 impl Args {
@@ -102,6 +112,7 @@ impl Args {
     pub fn run(self) -> Result<(), CliError> {
         let overrides = Overrides {
             strategy: self.strategy,
+            integrator: self.integrator,
             ..self.goal.overrides()
         };
         run(&self.task, self.json, &overrides)
@@ -109,7 +120,8 @@ impl Args {
 }
 
 fn run(task_path: &Path, json: bool, overrides: &Overrides) -> Result<(), CliError> {
-    let lt = taskfile::load(task_path)?;
+    let mut lt = taskfile::load(task_path)?;
+    lt.set_integrator(overrides.integrator)?;
     let report = with_dims!(lt.chain.dof(), bench_n, &lt, overrides)?;
     if json {
         let s = serde_json::to_string(&report).or_internal(|| "report JSON")?;
@@ -133,6 +145,13 @@ fn run(task_path: &Path, json: bool, overrides: &Overrides) -> Result<(), CliErr
             report.plan_rollouts_median
         );
         println!("converged       {:10}    of 10", report.plan_converged);
+        if let Some(e) = report.euler_rollout_us {
+            println!(
+                "euler rollout   {e:10.1} µs (median, the same η): {} is {:.1}x cheaper",
+                report.integrator,
+                e / report.rollout_us
+            );
+        }
         for l in &report.lanes {
             println!(
                 "{} lanes ({}, {} thread{}) {:8.1} µs per rollout ({:.1} ns per step), {:.2}x the scalar rollout",
@@ -226,6 +245,30 @@ fn bench_n<const N: usize, const K: usize>(
         }
     }
     let rollout_us = median(&per_rollout);
+    let rk4 = task.motion().integrator() != reactionless::Integrator::Euler;
+    let euler_rollout_us = if rk4 {
+        let motion = task
+            .motion()
+            .with_integrator(reactionless::Integrator::Euler)
+            .or_failed(|| "the Euler twin")?;
+        let euler = reactionless::Task::<N, K>::new(
+            task.robot().clone(),
+            *task.start(),
+            *task.target(),
+            motion,
+        )
+        .or_failed(|| "the Euler twin")?;
+        let mut per = Vec::new();
+        for _ in 0..21 {
+            let start = Instant::now();
+            let o = euler.rollout_of(&eta, &mut ()).or_failed(|| "rollout")?;
+            per.push(start.elapsed().as_secs_f64() * 1e6);
+            std::hint::black_box(o);
+        }
+        Some(median(&per))
+    } else {
+        None
+    };
     let lane = |lanes: usize, threads: usize, us: f64| LanesRun {
         lanes,
         threads,
@@ -233,15 +276,19 @@ fn bench_n<const N: usize, const K: usize>(
         step_ns: us * 1e3 / f64::from(steps),
         speedup: rollout_us / us,
     };
-    let lanes = vec![
-        lane(2, 1, time_lanes::<Native, N, K, 2>(&task, &etas)?),
-        lane(4, 1, time_lanes::<Native, N, K, 4>(&task, &etas)?),
-        lane(
-            8,
-            rayon::current_num_threads().min(8 / reactionless_simd::CHUNK),
-            time_lanes::<Threaded, N, K, 8>(&task, &etas)?,
-        ),
-    ];
+    let lanes = if rk4 {
+        Vec::new()
+    } else {
+        vec![
+            lane(2, 1, time_lanes::<Native, N, K, 2>(&task, &etas)?),
+            lane(4, 1, time_lanes::<Native, N, K, 4>(&task, &etas)?),
+            lane(
+                8,
+                rayon::current_num_threads().min(8 / reactionless_simd::CHUNK),
+                time_lanes::<Threaded, N, K, 8>(&task, &etas)?,
+            ),
+        ]
+    };
     Ok(BenchJson {
         n: N,
         steps_per_rollout: steps,
@@ -264,5 +311,7 @@ fn bench_n<const N: usize, const K: usize>(
         plans,
         isa: Isa::native().name().to_string(),
         lanes,
+        integrator: task.motion().integrator().name().to_string(),
+        euler_rollout_us,
     })
 }

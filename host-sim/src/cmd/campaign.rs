@@ -90,6 +90,10 @@ pub struct Args {
     strategy: Option<Strategies>,
     #[command(flatten)]
     goal: GoalArgs,
+    /// How rollouts integrate the path, for every task: euler or rk4 (overrides `[motion]
+    /// integrator`).
+    #[arg(long, value_parser = crate::args::parse_integrator)]
+    integrator: Option<reactionless::Integrator>,
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = crate::args::parse_usize)]
     jobs: Option<usize>,
@@ -112,7 +116,10 @@ impl Args {
             Some(list) => list.0.iter().copied().map(Some).collect(),
             None => vec![None],
         };
-        let base = self.goal.overrides();
+        let base = Overrides {
+            integrator: self.integrator,
+            ..self.goal.overrides()
+        };
         run(
             &self.tasks,
             &self.seeds,
@@ -140,8 +147,12 @@ fn run(
     }
     let loaded: Vec<LoadedTask> = tasks
         .iter()
-        .map(|t| taskfile::load(t))
-        .collect::<Result<_, _>>()?;
+        .map(|t| {
+            let mut lt = taskfile::load(t)?;
+            lt.set_integrator(base.integrator)?;
+            Ok(lt)
+        })
+        .collect::<Result<_, CliError>>()?;
     // Validate every task and its planner settings before anything runs.
     for lt in &loaded {
         for st in strategies {

@@ -330,7 +330,7 @@ fn human_summary<const N: usize, const K: usize>(
          \x20 orientation error    {} deg\n\
          \x20 base disturbance     {} deg (requirement ≤ {limit_deg} deg: {})\n\
          \x20 largest joint rate   {} deg/s on {} (its limit {} deg/s: {:.0}%)\n\
-         \x20 rollouts             {} in {:.2} s\n\
+         \x20 rollouts             {}{} in {:.2} s\n\
          \x20 files                {}/ (plan.json, summary.json, trajectory.csv, task.toml, robot.urdf)",
         json.strategy,
         json.seed,
@@ -348,7 +348,20 @@ fn human_summary<const N: usize, const K: usize>(
         number(rate_limit.to_degrees()),
         100.0 * ratio,
         json.rollouts,
+        integrated_by(lt),
         json.wall_time_s,
         dir.display(),
     )
+}
+
+/// ` (rk4, step H s)` for a task integrated by RK4; nothing for the reference Euler.
+fn integrated_by(lt: &LoadedTask) -> String {
+    match lt.motion() {
+        Ok(m) if m.integrator() != reactionless::Integrator::Euler => format!(
+            " ({}, step {} s)",
+            m.integrator().name(),
+            f64::from(m.stride()) * m.dt()
+        ),
+        _ => String::new(),
+    }
 }

@@ -133,3 +133,45 @@ fn a_bad_integrator_step_is_refused() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("expected euler or rk4"), "{err}");
 }
+
+/// `generate --integrator rk4` writes tasks whose targets are RK4's truth poses and that
+/// say `integrator = "rk4"`; such a task plans to its goal (the truth model refined).
+/// Verifies RL-CONT-006.
+#[test]
+fn generate_makes_rk4_tasks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("set");
+    let (code, _, err) = host_sim(args!(
+        "generate",
+        "--urdf",
+        &root().join("spec/chaser7.urdf"),
+        "--ee",
+        "ee",
+        "--q-deg=-60,30,20,60,-100,-60,20",
+        "--count",
+        "1",
+        "--seed",
+        "101",
+        "--integrator",
+        "rk4",
+        "--out",
+        &dir
+    ));
+    assert_eq!(code, Some(0), "{err}");
+    let task = dir.join("task_001.toml");
+    let text = std::fs::read_to_string(&task).unwrap();
+    assert!(text.contains("integrator = \"rk4\""), "{text}");
+    let out = tmp.path().join("p");
+    let (code, _, err) = host_sim(args!(
+        "plan",
+        &task,
+        "--refine-tolerance",
+        "1e-9",
+        "--refine-against",
+        "truth",
+        "--out",
+        &out
+    ));
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("(rk4, step 0.4 s)"), "{err}");
+}

@@ -84,6 +84,11 @@ pub struct Args {
     /// nothing) or free_amplitude (for targets near a fixed start's reach).
     #[arg(long, value_parser = parse_family, default_value = "paper")]
     family: Family,
+    /// How the targets' rollouts integrate the path, written as `[motion] integrator`:
+    /// euler (the reference, written as nothing) or rk4 (the targets are then RK4's truth
+    /// poses, whose base drift is far smaller than Euler's).
+    #[arg(long, value_parser = crate::args::parse_integrator, default_value = "euler")]
+    integrator: reactionless::Integrator,
 }
 
 /// What a generated target is.
@@ -197,6 +202,7 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
         *q = d.to_radians();
     }
     let motion = Motion::new(o.tf_s, o.dt_s, 1)
+        .and_then(|m| m.with_integrator(o.integrator))
         .map_err(|e| CliError::input(format!("--tf-s {} --dt-s {}: {e}", o.tf_s, o.dt_s)))?;
     let identity = Pose {
         position: [0.0; 3],
@@ -322,9 +328,13 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
                 "family = \"free_amplitude\"  # planned so; any eta above is the paper family's\n"
             }
         };
+        let integrator = match o.integrator {
+            reactionless::Integrator::Euler => String::new(),
+            other => format!("integrator = \"{}\"\n", other.name()),
+        };
         let _ = writeln!(
             t,
-            "[motion]\ntf_s = {}\ndt_s = {}\nn = 1\n{family}\n[planner]\nseed = 1",
+            "[motion]\ntf_s = {}\ndt_s = {}\nn = 1\n{family}{integrator}\n[planner]\nseed = 1",
             ryu::Buffer::new().format(o.tf_s),
             ryu::Buffer::new().format(o.dt_s)
         );

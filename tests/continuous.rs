@@ -151,15 +151,7 @@ fn hashed(t: &Task<7, 4>, budget: u32, sampled: bool) -> (Outcome<7>, u64, u32) 
 }
 
 fn bits(o: &Outcome<7>) -> Vec<u64> {
-    o.q_final
-        .iter()
-        .chain(&o.joint_min)
-        .chain(&o.joint_max)
-        .chain(&o.end_pose.position)
-        .chain(&o.end_pose.quat_wxyz)
-        .chain(&[o.phi, o.f, o.g, o.max_abs_qd])
-        .map(|v| v.to_bits())
-        .collect()
+    outcome_bits(o)
 }
 
 /// An RK4 rollout gives the same samples and outcome bit for bit whatever the budget of

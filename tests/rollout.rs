@@ -33,15 +33,7 @@ fn sliced(budget: u32) -> (Outcome<7>, u32, u64, u32) {
 }
 
 fn bits(o: &Outcome<7>) -> Vec<u64> {
-    o.q_final
-        .iter()
-        .chain(&o.joint_min)
-        .chain(&o.joint_max)
-        .chain(&o.end_pose.position)
-        .chain(&o.end_pose.quat_wxyz)
-        .chain(&[o.phi, o.f, o.g, o.max_abs_qd])
-        .map(|v| v.to_bits())
-        .collect()
+    outcome_bits(o)
 }
 
 /// Budgets 1, 7, 1000, 2999, 3000 give the one-call samples and outcome bit for bit, in

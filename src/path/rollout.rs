@@ -524,20 +524,12 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             if sink.discards() {
                 let reached = last - self.step;
                 self.step = last;
-                self.state.q = if j + reached == stride {
-                    self.span.q
-                } else {
-                    self.span.p.at(f64::from(j + reached) / f64::from(stride))
-                };
+                self.state.q = self.span.sample(j + reached, stride);
                 continue;
             }
             let mut i = j;
             while self.step < last {
-                let next = if i + 1 == stride {
-                    self.span.q
-                } else {
-                    self.span.p.at(f64::from(i + 1) / f64::from(stride))
-                };
+                let next = self.span.sample(i + 1, stride);
                 let t = motion.time(self.step);
                 let dt = motion.time(self.step + 1) - t;
                 let mut qd = [0.0; N];
@@ -663,6 +655,17 @@ impl<const N: usize> Span<N> {
         p: Cubic::IDLE,
         q: [0.0; N],
     };
+
+    /// Sample `i` of `stride` in this step: the last node exactly at `i = stride`, else
+    /// the interpolant at `θ = i/stride`.
+    #[inline]
+    fn sample(&self, i: u32, stride: u32) -> [f64; N] {
+        if i == stride {
+            self.q
+        } else {
+            self.p.at(f64::from(i) / f64::from(stride))
+        }
+    }
 }
 
 /// Where an abandoned rollout stopped.

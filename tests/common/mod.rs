@@ -8,7 +8,7 @@
     clippy::needless_range_loop
 )]
 
-use reactionless::{CHASER7, Robot, Task};
+use reactionless::{CHASER7, Outcome, Robot, Task};
 
 pub use reactionless::reference::{ETA_HAT, Q0_DEG, TARGET};
 
@@ -236,4 +236,17 @@ pub fn body_rotations<const N: usize>(
         out.push(*t.rotation.to_rotation_matrix().matrix());
     }
     out
+}
+
+/// The bit patterns of every value of a rollout's outcome, for bit-for-bit comparisons.
+pub fn outcome_bits<const N: usize>(o: &Outcome<N>) -> Vec<u64> {
+    o.q_final
+        .iter()
+        .chain(&o.joint_min)
+        .chain(&o.joint_max)
+        .chain(&o.end_pose.position)
+        .chain(&o.end_pose.quat_wxyz)
+        .chain(&[o.phi, o.f, o.g, o.max_abs_qd])
+        .map(|v| v.to_bits())
+        .collect()
 }

@@ -248,6 +248,25 @@ fn the_integrator_step_is_validated() {
         .unwrap();
     // 750 steps per segment: the largest divisor up to 40 is 30.
     assert_eq!(four.stride(), 30);
+    // Cutting into segments keeps an explicit stride, and refuses one that no longer divides.
+    let free = m.with_family(reactionless::Family::FreeAmplitude);
+    let ten = free
+        .with_integrator(Integrator::Rk4)
+        .unwrap()
+        .with_integrator_stride(10)
+        .unwrap();
+    assert_eq!(ten.with_segments(2).unwrap().stride(), 10);
+    let forty = free.with_integrator(Integrator::Rk4).unwrap();
+    assert_eq!(
+        forty.with_segments(4),
+        Err(Error::StrideUneven { stride: 40 })
+    );
+    // The default never exceeds what a task block carries (255), whatever dt.
+    let fine = Motion::new(3.0, 0.0001, 1)
+        .unwrap()
+        .with_integrator(Integrator::Rk4)
+        .unwrap();
+    assert_eq!(fine.stride(), 250);
     assert_eq!(Integrator::from_name("rk4"), Some(Integrator::Rk4));
     assert_eq!(Integrator::from_code(1), Some(Integrator::Rk4));
     assert_eq!(Integrator::from_code(2), None);

@@ -14,7 +14,10 @@
 //! of the sequence (see [`crate::swarm`] for the draw order).
 //!
 //! **Worst-case work per call**: `budget` integration steps (each one FK, one `H~bm`, one
-//! basis transport, and O(N) for the violation cap below), plus bookkeeping:
+//! basis transport, and O(N) for the violation cap below; with [`crate::Integrator::Rk4`]
+//! a step that reaches an integrator node does a whole RK4 step, four evaluations of the
+//! dual kinematics and `H~bm`, about 7 Euler steps of work on the host and 10 on the M7,
+//! and the other steps almost nothing), plus bookkeeping:
 //! - per finished rollout: one end-pose FK and O(K) to start the next rollout;
 //! - per generation boundary: O(T) to select gbest, plus the swarm move (`T·2K` velocity
 //!   updates with `4K` draws per particle, and, after a stagnation alarm, a permutation of

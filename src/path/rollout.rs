@@ -492,7 +492,11 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     /// rate of the written path over `[t_s, t_{s+1})` as Euler's; the joint extrema and the
     /// largest rate are those of `p` over the whole step (its range and rate bound), folded
     /// in at the node, where the violation cap is checked. So the outcome does not depend on
-    /// the sink, and a sink that [`Sink::discards`] costs no sample work.
+    /// the sink, and a sink that [`Sink::discards`] costs no sample work. An error inside an
+    /// integrator step is reported at the step of its first sample plus one. A call that
+    /// reaches a node does a whole RK4 step (four evaluations of the dual kinematics and
+    /// `H~bm`), whatever its budget: the largest work of one call is that, not one Euler
+    /// step.
     #[inline(never)]
     fn integrate_rk4<S: Sink<N>, C: Cap>(
         &mut self,
@@ -601,7 +605,12 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             *a = a.min(l);
             *b = b.max(u);
         }
-        s.max_abs_qd = s.max_abs_qd.max(p.rate_bound(h));
+        // A written rate is a chord between two samples `dt` apart, each within the slack
+        // of the interpolant (the last node exact): at most the bound plus 2 slacks over
+        // `dt` (taken as `dt/2`, for the rounding of the sample times).
+        s.max_abs_qd = s
+            .max_abs_qd
+            .max(p.rate_bound(h) + 4.0 * p.slack() / motion.dt());
         s.basis = Basis::<N, K>::reorthonormalized(cols).map_err(rank_error(self.step + 1))?;
         self.span = Span { p, q };
         Ok(())

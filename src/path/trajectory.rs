@@ -205,6 +205,10 @@ impl Integrator {
 /// largest whole number of `dt` that divides a segment and is at most this.
 pub const RK4_STEP_S: f64 = 0.4;
 
+/// The largest default RK4 stride (samples per step): what a task block carries (bits
+/// 8–15 of its degree word), so that a default RK4 motion always fits a block.
+pub const RK4_MAX_DEFAULT_STRIDE: u32 = 255;
+
 /// Duration and time grid of a motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -303,7 +307,8 @@ impl Motion {
     /// [`Error::NotPositive`] for 0 and [`Error::CapacityExceeded`] above [`MAX_SEGMENTS`]
     /// (both naming [`Param::Segments`]); [`Error::SegmentsUneven`] unless the segment
     /// count divides `t_f/dt`; [`Error::NeedsOneSegment`] for several segments of the
-    /// paper's family.
+    /// paper's family; [`Error::StrideUneven`] if an RK4 stride no longer divides a
+    /// segment.
     ///
     /// ```
     /// use reactionless::{Family, Motion};
@@ -334,18 +339,18 @@ impl Motion {
             segments: segments as u8,
             ..self
         };
-        match self.integrator {
-            Integrator::Euler => Ok(cut),
-            Integrator::Rk4 => cut.with_integrator(Integrator::Rk4),
-        }
+        // An RK4 stride stays as it was; it must still divide a segment.
+        cut.with_integrator_stride(cut.stride())
     }
 
     /// The same motion integrated by `integrator`, with its default step: 1 step of `dt`
     /// for [`Integrator::Euler`]; for [`Integrator::Rk4`] the largest whole number of `dt`
-    /// that divides a segment's steps and is at most [`RK4_STEP_S`] (at least one `dt`).
+    /// that divides a segment's steps and is at most [`RK4_STEP_S`] and at most
+    /// [`RK4_MAX_DEFAULT_STRIDE`] (at least one `dt`). Cut the motion into segments first:
+    /// [`Motion::with_segments`] keeps the stride, and refuses one that does not divide.
     ///
     /// # Errors
-    /// None today; the same as [`Motion::with_integrator_stride`] for the stride chosen.
+    /// None: the default always divides (kept as a `Result` for the stride's check).
     ///
     /// ```
     /// use reactionless::{Integrator, Motion};
@@ -357,12 +362,10 @@ impl Motion {
             Integrator::Euler => 1,
             Integrator::Rk4 => {
                 let per = self.segment().steps();
-                let most = libm::floor(RK4_STEP_S / self.dt + 1e-9).max(1.0);
-                let most = if most >= f64::from(per) {
-                    per
-                } else {
-                    most as u32
-                };
+                let most = libm::floor(RK4_STEP_S / self.dt + 1e-9)
+                    .min(f64::from(RK4_MAX_DEFAULT_STRIDE))
+                    .max(1.0);
+                let most = (most as u32).min(per);
                 // Bounded by `most ≤ per ≤ MAX_STEPS`; `1` always divides.
                 (1..=most).rev().find(|d| per % d == 0).unwrap_or(1)
             }

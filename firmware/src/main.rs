@@ -429,7 +429,12 @@ fn report(
     rl_mark_rollout_end();
     let mut digest = TrajectoryDigest::new();
     task.rollout_of(eta, &mut digest)?;
-    let mut r = Rollout::of(task, eta)?;
+    // Worked on inside the `Result`: moving the rollout out would copy it on the stack.
+    let mut made = Rollout::of(task, eta);
+    let r = match &mut made {
+        Ok(r) => r,
+        Err(e) => return Err(*e),
+    };
     r.advance(task, TIMED_STEP, &mut ())?;
     rl_mark_step_begin();
     let p = r.advance(task, 1, &mut ())?;

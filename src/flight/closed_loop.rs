@@ -400,6 +400,30 @@ impl<const N: usize> Executor<N> {
         Ok((exec, first))
     }
 
+    /// A placeholder that flies nothing (no cycles, at rest at the origin), replaced by
+    /// [`Executor::new`] before any use ([`PlanLoop::start_in`]).
+    fn parked(config: LoopConfig) -> Self {
+        Self {
+            config,
+            plan_cycles: 0,
+            cycle: 0,
+            com0: Vec3::zeros(),
+            qd_limit: [0.0; N],
+            plan_next: [0.0; N],
+            applying: [0.0; N],
+            applied: [0.0; N],
+            joints: [0.0; N],
+            reckoned: [0.0; N],
+            attitude: IDENTITY_WXYZ,
+            gyro_rotation: IDENTITY_WXYZ,
+            initial: IDENTITY_WXYZ,
+            readings: 0,
+            drift: Vec3::zeros(),
+            missing: [0; 3],
+            mode: Mode::Done,
+        }
+    }
+
     /// The mode.
     #[must_use]
     pub fn mode(&self) -> Mode {
@@ -899,7 +923,12 @@ pub fn fly_ideal<const N: usize, const K: usize>(
     hook: &mut impl FnMut(bool),
 ) -> Result<IdealFlight, Error> {
     let dt = nominal.motion().dt();
-    let (mut flight, mut rate) = PlanLoop::new(config, nominal, eta)?;
+    // Built in place: a copy of the loop beside it would sit under every cycle's frames.
+    let mut slot = None;
+    let mut rate = PlanLoop::start_in(&mut slot, config, nominal, eta)?;
+    let Some(flight) = slot.as_mut() else {
+        return Err(Error::NotInitialized);
+    };
     let per = flight.steps_per_cycle;
     let q0 = *nominal.start();
     let mut state = crate::TruthState::<N>::new(crate::TRUTH_SUBSTEPS);
@@ -981,6 +1010,60 @@ impl<const N: usize, const K: usize> PlanLoop<N, K> {
         task: &crate::Task<N, K>,
         eta: &crate::Eta<K>,
     ) -> Result<(Self, [f64; N]), Error> {
+        let mut slot = None;
+        let command = Self::start_in(&mut slot, config, task, eta)?;
+        slot.map(|l| (l, command)).ok_or(Error::NotInitialized)
+    }
+
+    /// [`PlanLoop::new`] built in place in `slot` (left `None` on an error), returning the
+    /// command for cycle 0. The plan's first cycle is rolled out on the loop in `slot`,
+    /// from a small frame: a loop is kilobytes (its rollout), and a copy of it under the
+    /// rollout's own frames was the flight image's deepest stack.
+    ///
+    /// # Errors
+    /// As [`PlanLoop::new`].
+    #[inline(never)]
+    pub fn start_in(
+        slot: &mut Option<Self>,
+        config: LoopConfig,
+        task: &crate::Task<N, K>,
+        eta: &crate::Eta<K>,
+    ) -> Result<[f64; N], Error> {
+        *slot = None;
+        let per = Self::place(slot, config, task, eta)?;
+        let Some(this) = slot.as_mut() else {
+            return Err(Error::NotInitialized);
+        };
+        let made = this.plan.at(task, per).and_then(|first| {
+            Executor::new(
+                config,
+                task.robot(),
+                task.start(),
+                task.motion().tf(),
+                &first,
+            )
+        });
+        match made {
+            Ok((executor, command)) => {
+                this.executor = executor;
+                Ok(command)
+            }
+            Err(e) => {
+                *slot = None;
+                Err(e)
+            }
+        }
+    }
+
+    /// The loop's plan stream at `t = 0` into `slot`, its executor a placeholder until the
+    /// plan's first cycle is known; returns the integration steps per cycle.
+    #[inline(never)]
+    fn place(
+        slot: &mut Option<Self>,
+        config: LoopConfig,
+        task: &crate::Task<N, K>,
+        eta: &crate::Eta<K>,
+    ) -> Result<u32, Error> {
         config.validate()?;
         let motion = task.motion();
         let dt = motion.dt();
@@ -993,22 +1076,16 @@ impl<const N: usize, const K: usize> PlanLoop<N, K> {
         // In range by the check above.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let per = per as u32;
-        let mut plan = PlanCursor {
-            setpoints: crate::Setpoints::of(task, eta)?,
-            last: *task.start(),
-            step: 0,
-        };
-        let first = plan.at(task, per)?;
-        let (executor, command) =
-            Executor::new(config, task.robot(), task.start(), motion.tf(), &first)?;
-        Ok((
-            Self {
-                executor,
-                plan,
-                steps_per_cycle: per,
+        *slot = Some(Self {
+            executor: Executor::parked(config),
+            plan: PlanCursor {
+                setpoints: crate::Setpoints::of(task, eta)?,
+                last: *task.start(),
+                step: 0,
             },
-            command,
-        ))
+            steps_per_cycle: per,
+        });
+        Ok(per)
     }
 
     /// One control cycle (see [`Executor::step`]) with the measurements taken at `t_k`;

@@ -1,6 +1,6 @@
 //! Criterion benchmarks of the core's hot path on the reference task (spec §8):
 //! one integration step and one full rollout (3000 steps), and the same rollout by RK4
-//! (issue #32: 75 steps of 0.4 s, the samples not taken).
+//! and by AB5 (issue #32: 75 steps of 0.4 s, 150 of 0.2 s, the samples not taken).
 //!
 //! `cargo bench --bench rollout`
 #![allow(missing_docs, clippy::unwrap_used)]
@@ -26,12 +26,17 @@ fn bench(c: &mut Criterion) {
     c.bench_function("rollout_3000_steps", |b| {
         b.iter(|| black_box(task.rollout(black_box(&ETA_HAT), &mut ()).unwrap()))
     });
-    let motion = task.motion().with_integrator(Integrator::Rk4).unwrap();
-    let rk4: Task<7, 4> =
-        Task::new(task.robot().clone(), *task.start(), *task.target(), motion).unwrap();
-    c.bench_function("rollout_rk4_75_steps", |b| {
-        b.iter(|| black_box(rk4.rollout(black_box(&ETA_HAT), &mut ()).unwrap()))
-    });
+    for (integrator, name) in [
+        (Integrator::Rk4, "rollout_rk4_75_steps"),
+        (Integrator::Ab5, "rollout_ab5_150_steps"),
+    ] {
+        let motion = task.motion().with_integrator(integrator).unwrap();
+        let by: Task<7, 4> =
+            Task::new(task.robot().clone(), *task.start(), *task.target(), motion).unwrap();
+        c.bench_function(name, |b| {
+            b.iter(|| black_box(by.rollout(black_box(&ETA_HAT), &mut ()).unwrap()))
+        });
+    }
 }
 
 criterion_group!(benches, bench);

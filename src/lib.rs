@@ -102,8 +102,8 @@ pub use strategy::Search;
 pub use swarm::{Cost, Swarm};
 pub use task::Task;
 pub use trajectory::{
-    Eta, Family, Integrator, MAX_DEGREE, MAX_SEGMENTS, MAX_STEPS, Motion, RK4_MAX_DEFAULT_STRIDE,
-    RK4_STEP_S, TimeLaw, eta_flat, eta_from_flat, eta_pairs, one_segment,
+    AB5_STEP_S, Eta, Family, Integrator, MAX_DEGREE, MAX_SEGMENTS, MAX_STEPS, Motion,
+    RK4_MAX_DEFAULT_STRIDE, RK4_STEP_S, TimeLaw, eta_flat, eta_from_flat, eta_pairs, one_segment,
 };
 pub use truth::{TRUTH_SUBSTEPS, TruthModel, TruthState};
 pub use twophase::{

@@ -18,9 +18,17 @@ fn euler(dt: f64) -> Task<7, 4> {
 }
 
 fn rk4(stride: u32) -> Task<7, 4> {
+    by(Integrator::Rk4, stride)
+}
+
+fn ab5(stride: u32) -> Task<7, 4> {
+    by(Integrator::Ab5, stride)
+}
+
+fn by(integrator: Integrator, stride: u32) -> Task<7, 4> {
     let m = Motion::new(30.0, 0.01, 1).unwrap();
     task(
-        m.with_integrator(Integrator::Rk4)
+        m.with_integrator(integrator)
             .unwrap()
             .with_integrator_stride(stride)
             .unwrap(),
@@ -93,14 +101,44 @@ fn rk4_integrates_the_limit_of_the_reference_discretization() {
     assert!(rk4_deg <= 1e-6 && euler_deg > 1e-3, "{rk4_deg} {euler_deg}");
 }
 
-/// The basis RK4 carries stays orthonormal (Gram–Schmidt at each node puts it back on
+/// AB5 converges to the same path at fifth order, and its default step (0.2 s) is within
+/// 1e-8 m and 1e-6° of it.
+/// Verifies RL-CONT-009.
+#[test]
+fn ab5_integrates_the_same_path_at_fifth_order() {
+    let path = end(&rk4(1));
+    let r: Vec<f64> = [10, 20, 40]
+        .iter()
+        .map(|&s| dist(&end(&ab5(s)), &path))
+        .collect();
+    println!("AB5 (strides 10, 20, 40) end position off the path: {r:?}");
+    for w in r.windows(2) {
+        assert!((16.0..64.0).contains(&(w[1] / w[0])), "fifth order: {r:?}");
+    }
+    let default = Motion::new(30.0, 0.01, 1)
+        .unwrap()
+        .with_integrator(Integrator::Ab5)
+        .unwrap();
+    assert_eq!(default.stride(), 20);
+    assert!(r[1] <= 1e-8, "{r:?}");
+    let deg = angle_deg(&ab5(20), &rk4(1));
+    println!("end attitude off the path: AB5 stride 20 {deg:e} deg");
+    assert!(deg <= 1e-6, "{deg}");
+}
+
+/// The basis RK4 (and AB5) carries stays orthonormal (Gram–Schmidt at each node puts it back on
 /// `NᵀN = I`) and in the null space of `H~bm` to the integrator's accuracy.
 /// Verifies RL-CONT-002.
 #[test]
 fn rk4_basis_stays_orthonormal_in_the_null_space() {
-    let t = rk4(40);
-    let mut r = Rollout::new(&t, &ETA_HAT).unwrap();
-    let Progress::Done(o) = r.advance(&t, u32::MAX, &mut ()).unwrap() else {
+    for t in [rk4(40), ab5(20)] {
+        basis_stays_orthonormal(&t);
+    }
+}
+
+fn basis_stays_orthonormal(t: &Task<7, 4>) {
+    let mut r = Rollout::new(t, &ETA_HAT).unwrap();
+    let Progress::Done(o) = r.advance(t, u32::MAX, &mut ()).unwrap() else {
         unreachable!("an unlimited budget finishes")
     };
     let a = coupling(t.robot(), &Frames::new(t.robot(), &o.q_final));
@@ -154,24 +192,29 @@ fn bits(o: &Outcome<7>) -> Vec<u64> {
     outcome_bits(o)
 }
 
-/// An RK4 rollout gives the same samples and outcome bit for bit whatever the budget of
+/// An RK4 (and an AB5) rollout gives the same samples and outcome bit for bit whatever the budget of
 /// each call (within an integrator step, across one, all at once), and the same outcome
 /// whether its samples are taken or discarded.
 /// Verifies RL-CONT-004.
 #[test]
 fn rk4_rollout_is_bit_identical_under_any_slicing_and_sink() {
-    let t = rk4(40);
-    let (reference, hash, n) = hashed(&t, u32::MAX, true);
+    for t in [rk4(40), ab5(20)] {
+        bit_identical_under_any_slicing_and_sink(&t);
+    }
+}
+
+fn bit_identical_under_any_slicing_and_sink(t: &Task<7, 4>) {
+    let (reference, hash, n) = hashed(t, u32::MAX, true);
     assert_eq!(n, 3001);
     assert_eq!(
         bits(&t.rollout(&ETA_HAT, &mut ()).unwrap()),
         bits(&reference)
     );
     for budget in [1, 7, 39, 40, 41, 1000, 2999] {
-        let (o, h, n) = hashed(&t, budget, true);
+        let (o, h, n) = hashed(t, budget, true);
         assert_eq!(bits(&o), bits(&reference), "budget {budget}");
         assert_eq!((h, n), (hash, 3001), "samples, budget {budget}");
-        let (o, _, _) = hashed(&t, budget, false);
+        let (o, _, _) = hashed(t, budget, false);
         assert_eq!(
             bits(&o),
             bits(&reference),
@@ -180,13 +223,18 @@ fn rk4_rollout_is_bit_identical_under_any_slicing_and_sink() {
     }
 }
 
-/// The written samples lie within the reported joint extrema and rate bound (those of the
+/// For RK4 and AB5, the written samples lie within the reported joint extrema and rate bound (those of the
 /// dense output over every step), follow `q' = q + dt·q̇` to rounding, end at `q_final` and
 /// at rest, and the rate bound is below the rate limit.
 /// Verifies RL-CONT-003.
 #[test]
 fn rk4_samples_lie_within_the_reported_extrema_and_rate() {
-    let t = rk4(40);
+    for t in [rk4(40), ab5(20)] {
+        samples_lie_within(&t);
+    }
+}
+
+fn samples_lie_within(t: &Task<7, 4>) {
     let mut samples = Vec::new();
     let o = t
         .rollout(&ETA_HAT, &mut |s: &Sample<7>| samples.push(*s))
@@ -269,7 +317,16 @@ fn the_integrator_step_is_validated() {
     assert_eq!(fine.stride(), 250);
     assert_eq!(Integrator::from_name("rk4"), Some(Integrator::Rk4));
     assert_eq!(Integrator::from_code(1), Some(Integrator::Rk4));
-    assert_eq!(Integrator::from_code(2), None);
+    assert_eq!(Integrator::from_name("ab5"), Some(Integrator::Ab5));
+    assert_eq!(Integrator::from_code(2), Some(Integrator::Ab5));
+    assert_eq!(Integrator::from_code(3), None);
+    // AB5's default is half RK4's step, and its stride is validated as RK4's.
+    let ab = m.with_integrator(Integrator::Ab5).unwrap();
+    assert_eq!(ab.stride(), 20);
+    assert_eq!(
+        ab.with_integrator_stride(7),
+        Err(Error::StrideUneven { stride: 7 })
+    );
 }
 
 /// Lanes integrate with Euler only: loading an RK4 task is refused, not silently Euler.

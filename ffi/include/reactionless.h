@@ -38,7 +38,7 @@
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 6
+#define RL_ABI_VERSION 7
 
 /*
  Joints of the flight robot (N).
@@ -65,12 +65,12 @@
  Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_PLANNER_WORDS 4352
+#define RL_PLANNER_WORDS 4608
 
 /*
  Words (u64) of stream storage inside [`rl_setpoints`].
  */
-#define RL_SETPOINTS_WORDS 256
+#define RL_SETPOINTS_WORDS 384
 
 /*
  Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at
@@ -84,7 +84,7 @@
  Words (u64) of loop storage inside [`rl_loop`]: room for the loop on every target, with
  headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_LOOP_WORDS 384
+#define RL_LOOP_WORDS 512
 
 /*
  `rl_measurement.valid`: the star tracker's quaternion is present.
@@ -186,7 +186,7 @@
  Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_TWO_PHASE_WORDS 2688
+#define RL_TWO_PHASE_WORDS 2880
 
 /*
  Bytes that always hold a two-phase checkpoint of this ABI version

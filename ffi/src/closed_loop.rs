@@ -34,7 +34,7 @@ pub type FlightLoop = PlanLoop<7, 4>;
 
 /// Words (u64) of loop storage inside [`rl_loop`]: room for the loop on every target, with
 /// headroom so that a small growth of the core keeps the ABI.
-pub const RL_LOOP_WORDS: usize = 384;
+pub const RL_LOOP_WORDS: usize = 512;
 
 /// [`rl_loop_config`] holds a value the loop refuses: a setting not finite or out of its
 /// range, an unstable gain `k T_c ≥ 1`, or a control period that is not a whole number of

@@ -155,6 +155,48 @@ fn c_program_matches_the_record_across_a_checkpoint() {
     );
 }
 
+/// The same C program on the reference task integrated by AB5 (the block's integrator code
+/// and stride, issue #32): host-sim's record of that task bit for bit, and the core's
+/// closed-loop commands.
+/// Verifies RL-CONT-010.
+#[test]
+fn c_program_plans_an_ab5_block() {
+    let dir = out_dir();
+    let mut lt = taskfile::load(&root().join("spec/tasks/paper.toml")).unwrap();
+    lt.set_integrator(Some(reactionless::Integrator::Ab5))
+        .unwrap();
+    let block = dir.join("paper-ab5.block");
+    std::fs::write(
+        &block,
+        host_sim::flight::task_block(&lt, &Overrides::default()).unwrap(),
+    )
+    .unwrap();
+    let other = dir.join("other-ab5.block");
+    block_of("tests/records/tasks/chaser7/task_002.toml", &other);
+    let exe = dir.join("abi_test_ab5");
+    compile_c(&["abi_test.c", "host_main.c"], &exe);
+    let text = run(Command::new(&exe).arg(&block).arg(&other));
+    let got = parse(&text);
+    let rec = host_sim::records::outputs_of::<7, 4>(&lt, &Overrides::default())
+        .unwrap()
+        .outputs;
+    let want = |k: &str, v: String| {
+        assert_eq!(got.get(k), Some(&v), "{k}: C output\n{text}");
+    };
+    want("RESULT", "ok".into());
+    want("STATUS", rec.status.clone());
+    want("ROLLOUTS", rec.rollouts.to_string());
+    want("F", rec.f_bits.clone());
+    for (i, b) in rec.eta_bits.iter().enumerate() {
+        want(&format!("ETA {i}"), b.clone());
+    }
+    want("SAMPLES", rec.trajectory_samples.to_string());
+    want("DIGEST", rec.trajectory_digest.clone());
+    let (digest, commands, _) = core_flight(&block);
+    want("LOOP_DIGEST", digest);
+    want("LOOP_CYCLES", (commands - 1).to_string());
+}
+
 /// The checked-in header compiles as C++11 with every warning an error, and links.
 /// Verifies RL-FFI-006.
 #[test]

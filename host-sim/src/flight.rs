@@ -94,7 +94,8 @@ pub fn task_block_retimed(
         n: lt.file.motion.n,
         family: lt.file.motion.family,
         segments: lt.file.motion.segments,
-        rk4_stride: rk4_stride(lt)?,
+        integrator: lt.motion()?.integrator(),
+        stride: block_stride(lt)?,
         planner,
         retime,
         two_phase,
@@ -105,14 +106,14 @@ pub fn task_block_retimed(
     Ok(buf)
 }
 
-/// The block's integrator field ([`TaskBlock::rk4_stride`]): 0 for Euler, else RK4's
-/// samples per step, at most 255 in a block.
-fn rk4_stride(lt: &LoadedTask) -> Result<u32, CliError> {
+/// The block's stride field ([`TaskBlock::stride`]): 0 for Euler, else the samples per
+/// integrator step, at most 255 in a block.
+fn block_stride(lt: &LoadedTask) -> Result<u32, CliError> {
     let motion = lt.motion()?;
     match motion.integrator() {
         reactionless::Integrator::Euler => Ok(0),
-        reactionless::Integrator::Rk4 if motion.stride() <= 0xFF => Ok(motion.stride()),
-        reactionless::Integrator::Rk4 => Err(CliError::input(format!(
+        _ if motion.stride() <= 0xFF => Ok(motion.stride()),
+        _ => Err(CliError::input(format!(
             "{}: [motion] integrator_step_s = {} s is {} steps of dt; a task block carries at most 255",
             lt.path.display(),
             f64::from(motion.stride()) * motion.dt(),

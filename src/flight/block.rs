@@ -160,9 +160,11 @@ pub struct TaskBlock<const N: usize> {
     pub family: Family,
     /// Segments of the motion ([`Motion::with_segments`], `1..=`[`crate::MAX_SEGMENTS`]).
     pub segments: u32,
-    /// How rollouts integrate the path: 0 for [`Integrator::Euler`], or the samples per
-    /// step of [`Integrator::Rk4`] (`1..=255`, [`Motion::with_integrator_stride`]).
-    pub rk4_stride: u32,
+    /// How rollouts integrate the path ([`Motion::with_integrator`]).
+    pub integrator: Integrator,
+    /// Samples per integrator step: 0 for [`Integrator::Euler`], `1..=255` for
+    /// [`Integrator::Rk4`] and [`Integrator::Ab5`] ([`Motion::with_integrator_stride`]).
+    pub stride: u32,
     /// Planner settings (with the frame budget: integration steps the flight software
     /// gives the planner per frame).
     pub planner: PlannerConfig,
@@ -207,13 +209,14 @@ impl<const N: usize> TaskBlock<N> {
 }
 
 impl<const N: usize> TaskBlock<N> {
-    /// `motion` integrated as the block says ([`TaskBlock::rk4_stride`]).
+    /// `motion` integrated as the block says ([`TaskBlock::integrator`],
+    /// [`TaskBlock::stride`]).
     fn integrate(&self, motion: Motion) -> Result<Motion, Error> {
-        match self.rk4_stride {
-            0 => Ok(motion),
-            stride => motion
-                .with_integrator(Integrator::Rk4)?
-                .with_integrator_stride(stride),
+        match self.integrator {
+            Integrator::Euler => Ok(motion),
+            other => motion
+                .with_integrator(other)?
+                .with_integrator_stride(self.stride),
         }
     }
 
@@ -390,13 +393,22 @@ pub fn encode<const N: usize>(block: &TaskBlock<N>, out: &mut [u8]) -> Result<us
     w.f64s(&block.target.quat_wxyz);
     w.f64(block.tf_s);
     w.f64(block.dt_s);
-    if block.n > 0xFF || block.rk4_stride > 0xFF {
+    // Bits 20–23 name the integrator where the stride alone does not: 0 for Euler (stride
+    // 0) and RK4 (stride ≥ 1, as blocks of ABI version 6 wrote it), 2 for AB5.
+    let multistep = match (block.integrator, block.stride) {
+        (Integrator::Euler, 0) => 0,
+        (Integrator::Rk4, 1..=0xFF) => 0,
+        (Integrator::Ab5, 1..=0xFF) => u32::from(Integrator::Ab5.code()),
+        _ => return Err(Error::Block(BlockFault::Field)),
+    };
+    if block.n > 0xFF || block.family.code() > 0xF {
         return Err(Error::Block(BlockFault::Field));
     }
     w.u32(
         block.n
-            | (block.rk4_stride << 8)
+            | (block.stride << 8)
             | (u32::from(block.family.code()) << 16)
+            | (multistep << 20)
             | (block.segments.saturating_sub(1).min(0xFF) << 24),
     );
     let p = &block.planner;
@@ -517,11 +529,17 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
     let dt_s = r.f64()?;
     let degree_family = r.u32()?;
     let n = degree_family & 0xFF;
-    let rk4_stride = (degree_family >> 8) & 0xFF;
-    let family = u8::try_from((degree_family >> 16) & 0xFF)
+    let stride = (degree_family >> 8) & 0xFF;
+    let family = u8::try_from((degree_family >> 16) & 0xF)
         .ok()
         .and_then(Family::from_code)
         .ok_or(Error::Block(BlockFault::Field))?;
+    let integrator = match ((degree_family >> 20) & 0xF, stride) {
+        (0, 0) => Integrator::Euler,
+        (0, _) => Integrator::Rk4,
+        (2, 1..) => Integrator::Ab5,
+        _ => return Err(Error::Block(BlockFault::Field)),
+    };
     let segments = (degree_family >> 24) + 1;
     let particles = r.u32()?;
     let max_iterations = r.u32()?;
@@ -598,7 +616,8 @@ pub fn decode<const N: usize>(data: &[u8]) -> Result<TaskBlock<N>, Error> {
         n,
         family,
         segments,
-        rk4_stride,
+        integrator,
+        stride,
         planner: PlannerConfig {
             strategy,
             max_rollouts,
@@ -647,7 +666,8 @@ mod tests {
             n: 1,
             family: Family::Paper,
             segments: 1,
-            rk4_stride: 0,
+            integrator: Integrator::Euler,
+            stride: 0,
             planner,
             retime: None,
             two_phase: None,
@@ -764,7 +784,8 @@ mod tests {
     #[test]
     fn the_rk4_stride_rides_in_the_degree_word() {
         let rk4 = TaskBlock {
-            rk4_stride: 40,
+            integrator: Integrator::Rk4,
+            stride: 40,
             ..block()
         };
         let (mut a, mut b) = ([0u8; 4096], [0u8; 4096]);
@@ -784,7 +805,8 @@ mod tests {
         let m = planner.task().motion();
         assert_eq!((m.integrator(), m.stride()), (Integrator::Rk4, 40));
         let odd = TaskBlock {
-            rk4_stride: 7,
+            integrator: Integrator::Rk4,
+            stride: 7,
             ..block()
         };
         assert_eq!(
@@ -792,10 +814,55 @@ mod tests {
             Err(Error::StrideUneven { stride: 7 })
         );
         let wide = TaskBlock {
-            rk4_stride: 256,
+            integrator: Integrator::Rk4,
+            stride: 256,
             ..block()
         };
         assert_eq!(encode(&wide, &mut b), Err(Error::Block(BlockFault::Field)));
+        for (integrator, stride) in [(Integrator::Euler, 40), (Integrator::Ab5, 0)] {
+            let bad = TaskBlock {
+                integrator,
+                stride,
+                ..block()
+            };
+            assert_eq!(encode(&bad, &mut b), Err(Error::Block(BlockFault::Field)));
+        }
+    }
+
+    /// An AB5 block carries its stride as RK4's does and code 2 in bits 20–23 of the degree
+    /// word, and loads a planner whose task integrates by AB5; code 2 without a stride, or
+    /// an unknown code, is refused.
+    /// Verifies RL-CONT-009.
+    #[test]
+    fn an_ab5_block_names_its_integrator_in_the_degree_word() {
+        let ab5 = TaskBlock {
+            integrator: Integrator::Ab5,
+            stride: 20,
+            ..block()
+        };
+        let mut b = [0u8; 4096];
+        let len = encode(&ab5, &mut b).unwrap();
+        assert_eq!(decode::<7>(&b[..len]).unwrap(), ab5);
+        let word = 16 + 13 * 8 + 7 * 12 * 8 + 7 * 13 * 8 + 6 * 8 + 7 * 8 + 7 * 8 + 2 * 8;
+        assert_eq!(
+            u32::from_le_bytes(b[word..word + 4].try_into().unwrap()),
+            1 | 20 << 8 | 2 << 20
+        );
+        let mut planner = Planner::<7, 4, 64>::IDLE;
+        ab5.load_into(&mut planner).unwrap();
+        let m = planner.task().motion();
+        assert_eq!((m.integrator(), m.stride()), (Integrator::Ab5, 20));
+        for word_value in [1 | 2 << 20, 1 | 20 << 8 | 3 << 20] {
+            let mut c = b;
+            c[word..word + 4].copy_from_slice(&u32::to_le_bytes(word_value));
+            let crc = crc32(&c[..len - 4]);
+            c[len - 4..len].copy_from_slice(&crc.to_le_bytes());
+            assert_eq!(
+                decode::<7>(&c[..len]),
+                Err(Error::Block(BlockFault::Field)),
+                "{word_value:#x}"
+            );
+        }
     }
 
     /// A two-phase block is written as `RLTASK04` (with re-timing settings `RLTASK05`),

@@ -5,8 +5,9 @@
 //! Owns [`euler_step`] (used by the rollout, and by `host-sim check` to verify every
 //! written row) and [`midpoint_substeps`] (used by [`crate::TruthModel`]): both are the
 //! reference discretization, and changing either moves every golden record. Owns
-//! [`rk4_step`] and [`hermite`], which [`crate::Integrator::Rk4`] rollouts use: classical
-//! Runge–Kutta on `(q, N)` and the cubic Hermite interpolant of `q` between two steps.
+//! [`rk4_step`], [`ab5_step`] and [`Cubic`], which [`crate::Integrator::Rk4`] and
+//! [`crate::Integrator::Ab5`] rollouts use: classical Runge–Kutta and fifth-order
+//! Adams–Bashforth on `(q, N)`, and the cubic Hermite interpolant of `q` between two steps.
 
 use crate::lanes::Real;
 
@@ -127,6 +128,8 @@ fn accumulate<const N: usize, const K: usize>(acc: &mut Rates<N, K>, w: f64, k: 
 /// that order (four evaluations of `f`, no FMA: the same bits on every target). Three
 /// states live at a time (the stage, its rates, the running sum), for a small stack.
 ///
+/// Returns `k₁`, the rates at the start (an [`ab5_step`] keeps them).
+///
 /// # Errors
 /// The first error of `f`; `q` and `cols` are then unchanged.
 ///
@@ -147,9 +150,10 @@ pub fn rk4_step<const N: usize, const K: usize, E>(
     q: &mut [f64; N],
     cols: &mut [[f64; N]; K],
     mut f: impl FnMut(f64, &[f64; N], &[[f64; N]; K]) -> Result<Rates<N, K>, E>,
-) -> Result<(), E> {
+) -> Result<Rates<N, K>, E> {
     let half = 0.5 * h;
-    let mut acc = f(t, q, cols)?;
+    let k1 = f(t, q, cols)?;
+    let mut acc = k1;
     let mut stage = acc;
     offset(&mut stage, q, cols, half, &acc);
     let k = f(t + half, &stage.0, &stage.1)?;
@@ -160,16 +164,69 @@ pub fn rk4_step<const N: usize, const K: usize, E>(
     accumulate(&mut acc, 2.0, &k);
     let k = f(t + h, &stage.0, &stage.1)?;
     accumulate(&mut acc, 1.0, &k);
-    let sixth = h / 6.0;
+    advance(q, cols, h / 6.0, &acc);
+    Ok(k1)
+}
+
+/// `y ← y + c·acc` for the state `y = (q, cols)`.
+#[inline(always)]
+fn advance<const N: usize, const K: usize>(
+    q: &mut [f64; N],
+    cols: &mut [[f64; N]; K],
+    c: f64,
+    acc: &Rates<N, K>,
+) {
     for (x, a) in q.iter_mut().zip(acc.0.iter()) {
-        *x += sixth * *a;
+        *x += c * *a;
     }
     for (col, acol) in cols.iter_mut().zip(acc.1.iter()) {
         for (x, a) in col.iter_mut().zip(acol.iter()) {
-            *x += sixth * *a;
+            *x += c * *a;
         }
     }
-    Ok(())
+}
+
+/// The fifth-order Adams–Bashforth weights `b₀ … b₄` of `f_n … f_{n−4}`.
+const AB5: [f64; 5] = [
+    1901.0 / 720.0,
+    -2774.0 / 720.0,
+    2616.0 / 720.0,
+    -1274.0 / 720.0,
+    251.0 / 720.0,
+];
+
+/// One fifth-order Adams–Bashforth step of length `h` (s) of the state `q` (rad) and
+/// `cols`, in place: `y ← y + h·((((b₀f_n + b₁f_{n−1}) + b₂f_{n−2}) + b₃f_{n−3}) +
+/// b₄f_{n−4})`, each component in that order, with `rates = [f_n, f_{n−1}, …, f_{n−4}]`
+/// the rates at this node and the four before it, `h` apart. No evaluation of its own:
+/// the caller evaluated `f_n` and keeps the past ones.
+///
+/// Verifies RL-CONT-009.
+///
+/// ```
+/// // ẏ = 1 + 4t³ (a quartic, which AB5 integrates exactly) from t = 0.4 to 0.5.
+/// let h = 0.1;
+/// let f = |t: f64| ([1.0 + 4.0 * t * t * t], [[0.0]]);
+/// let (mut q, mut n) = ([0.4 + 0.4f64.powi(4)], [[0.0]]);
+/// let rates = [f(0.4), f(0.3), f(0.2), f(0.1), f(0.0)];
+/// reactionless::integrator::ab5_step(h, &mut q, &mut n, [&rates[0], &rates[1], &rates[2], &rates[3], &rates[4]]);
+/// assert!((q[0] - (0.5 + 0.5f64.powi(4))).abs() < 1e-15);
+/// ```
+pub fn ab5_step<const N: usize, const K: usize>(
+    h: f64,
+    q: &mut [f64; N],
+    cols: &mut [[f64; N]; K],
+    rates: [&Rates<N, K>; 5],
+) {
+    let [b0, b1, b2, b3, b4] = AB5;
+    let [f0, f1, f2, f3, f4] = rates;
+    let mut acc = ([0.0; N], [[0.0; N]; K]);
+    offset(&mut acc, &[0.0; N], &[[0.0; N]; K], b0, f0);
+    accumulate(&mut acc, b1, f1);
+    accumulate(&mut acc, b2, f2);
+    accumulate(&mut acc, b3, f3);
+    accumulate(&mut acc, b4, f4);
+    advance(q, cols, h, &acc);
 }
 
 /// The cubic Hermite interpolant of one integrator step of `h` seconds, between `(q0, v0)`

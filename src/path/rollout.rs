@@ -16,7 +16,7 @@
 
 use crate::error::Error;
 use crate::geometry::{Pose, PoseError};
-use crate::integrator::{Cubic, euler_step, rk4_step};
+use crate::integrator::{Cubic, Rates, ab5_step, euler_step, rk4_step};
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
 use crate::lanes::{Lanes, Real};
 use crate::model::Robot;
@@ -277,8 +277,9 @@ pub struct Rollout<const N: usize, const K: usize> {
     law: TimeLaw<K>,
     step: u32,
     state: State<N, K, f64>,
-    /// [`Integrator::Rk4`]: the integrator step the samples are being taken from.
-    span: Span<N>,
+    /// [`Integrator::Rk4`], [`Integrator::Ab5`]: the integrator step the samples are
+    /// being taken from.
+    span: Span<N, K>,
     /// Abandon once Φ of the samples so far exceeds this (rad); `∞` never abandons.
     phi_cap: f64,
     phase: Phase<N>,
@@ -444,8 +445,8 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         sink: &mut S,
     ) -> Result<Result<(), C::Stop>, Error> {
         let motion = task.motion();
-        if motion.integrator() == Integrator::Rk4 {
-            return self.integrate_rk4(task, end, cap, sink);
+        if motion.integrator() != Integrator::Euler {
+            return self.integrate_nodes(task, end, cap, sink);
         }
         let robot = task.robot();
         let dt = motion.dt();
@@ -485,9 +486,10 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         Ok(Ok(()))
     }
 
-    /// [`Rollout::integrate`] for [`Integrator::Rk4`]: at each integrator node (every
-    /// [`Motion::stride`] samples of a segment) one [`rk4_step`] of `(q, N)` to the next
-    /// node, and the [`Cubic`] Hermite interpolant `p` of `q` over it. The samples are
+    /// [`Rollout::integrate`] for [`Integrator::Rk4`] and [`Integrator::Ab5`]: at each
+    /// integrator node (every [`Motion::stride`] samples of a segment) one step of `(q, N)`
+    /// to the next node ([`Rollout::span_step`]), and the [`Cubic`] Hermite interpolant `p`
+    /// of `q` over it. The samples are
     /// `q_s = p(t_s)` (the nodes exactly) and `q̇_s = (q_{s+1} − q_s)/(t_{s+1} − t_s)`, the
     /// rate of the written path over `[t_s, t_{s+1})` as Euler's; the joint extrema and the
     /// largest rate are those of `p` over the whole step (its range and rate bound), folded
@@ -495,10 +497,10 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     /// the sink, and a sink that [`Sink::discards`] costs no sample work. An error inside an
     /// integrator step is reported at the step of its first sample plus one. A call that
     /// reaches a node does a whole RK4 step (four evaluations of the dual kinematics and
-    /// `H~bm`), whatever its budget: the largest work of one call is that, not one Euler
-    /// step.
+    /// `H~bm`; one for an AB5 step after the first four of a segment), whatever its
+    /// budget: the largest work of one call is that, not one Euler step.
     #[inline(never)]
-    fn integrate_rk4<S: Sink<N>, C: Cap>(
+    fn integrate_nodes<S: Sink<N>, C: Cap>(
         &mut self,
         task: &Task<N, K>,
         end: u32,
@@ -554,8 +556,10 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         Ok(Ok(()))
     }
 
-    /// At the node of sample `local` of segment `k`: one [`rk4_step`] to the next node,
-    /// its interpolant, and its range and rate folded into the extrema.
+    /// At the node of sample `local` of segment `k`: one step to the next node (an
+    /// [`rk4_step`], or for [`Integrator::Ab5`] past the segment's first four nodes an
+    /// [`ab5_step`] from the rates kept at the four nodes before), its interpolant, and its
+    /// range and rate folded into the extrema.
     fn span_step(
         &mut self,
         task: &Task<N, K>,
@@ -577,26 +581,48 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
                 t,
             ))
         };
+        let mut rates_with = |qd: [f64; N], q: &[f64; N], cols: &[[f64; N]; K]| {
+            let (a, a_dot) = coupling_rate(robot, frames, q, &qd);
+            Ok((qd, Basis::rate_of(cols, &a, &a_dot)?))
+        };
         if self.step == 0 {
             self.span.q = self.state.q;
         }
-        let (t0, t1) = (grid.time(local), grid.time(local + motion.stride()));
+        let stride = motion.stride();
+        let (t0, t1) = (grid.time(local), grid.time(local + stride));
         let h = t1 - t0;
         let q0 = self.span.q;
         let mut q = q0;
         let mut cols = *self.state.basis.columns();
-        rk4_step(t0, h, &mut q, &mut cols, |t, q, cols| {
-            let qd = at(t, cols);
-            let (a, a_dot) = coupling_rate(robot, frames, q, &qd);
-            Ok((qd, Basis::rate_of(cols, &a, &a_dot)?))
-        })
-        .map_err(rank_error(self.step + 1))?;
+        let node = (local / stride.max(1)) as usize;
+        let multistep = motion.integrator() == Integrator::Ab5;
+        let now = if multistep && node >= AB5_START {
+            let now = rates_with(at(t0, &cols), &q, &cols).map_err(rank_error(self.step + 1))?;
+            let p = &self.span.past;
+            let past = |back: usize| p.get((node + 4 - back) % 4).unwrap_or(&now);
+            ab5_step(
+                h,
+                &mut q,
+                &mut cols,
+                [&now, past(1), past(2), past(3), past(4)],
+            );
+            now
+        } else {
+            let rates =
+                |t: f64, q: &[f64; N], cols: &[[f64; N]; K]| rates_with(at(t, cols), q, cols);
+            rk4_step(t0, h, &mut q, &mut cols, rates).map_err(rank_error(self.step + 1))?
+        };
+        if multistep {
+            if let Some(slot) = self.span.past.get_mut(node % 4) {
+                *slot = now;
+            }
+        }
         if !q.iter().chain(cols.iter().flatten()).all(|v| v.is_finite()) {
             return Err(Error::NonFiniteState {
                 step: self.step + 1,
             });
         }
-        let v0 = at(t0, self.state.basis.columns());
+        let v0 = now.0;
         let v1 = at(t1, &cols);
         let p = Cubic::hermite(&q0, &v0, &q, &v1, h);
         let (lo, hi) = p.range();
@@ -612,7 +638,8 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             .max_abs_qd
             .max(p.rate_bound(h) + 4.0 * p.slack() / motion.dt());
         s.basis = Basis::<N, K>::reorthonormalized(cols).map_err(rank_error(self.step + 1))?;
-        self.span = Span { p, q };
+        self.span.p = p;
+        self.span.q = q;
         Ok(())
     }
 
@@ -651,18 +678,26 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
     }
 }
 
-/// The integrator step an [`Integrator::Rk4`] rollout is taking samples from: the
-/// interpolant of `q` over it and `q` at its last node (the integrator's state).
+/// The nodes of a segment an [`Integrator::Ab5`] rollout takes by RK4 before it has the
+/// four past rates a step needs.
+const AB5_START: usize = 4;
+
+/// The integrator step a [`Integrator::Rk4`] or [`Integrator::Ab5`] rollout is taking
+/// samples from: the interpolant of `q` over it and `q` at its last node (the integrator's
+/// state), and for AB5 the rates `(q̇, Ṅ)` at the last four nodes (node `n`'s in slot
+/// `n mod 4`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Span<const N: usize> {
+struct Span<const N: usize, const K: usize> {
     p: Cubic<N>,
     q: [f64; N],
+    past: [Rates<N, K>; 4],
 }
 
-impl<const N: usize> Span<N> {
+impl<const N: usize, const K: usize> Span<N, K> {
     const IDLE: Self = Self {
         p: Cubic::IDLE,
         q: [0.0; N],
+        past: [([0.0; N], [[0.0; N]; K]); 4],
     };
 
     /// Sample `i` of `stride` in this step: the last node exactly at `i = stride`, else
@@ -729,9 +764,7 @@ impl<const N: usize, const K: usize> Task<N, K> {
         eta: &[[f64; 2]; K],
         sink: &mut S,
     ) -> Result<Outcome<N>, Error> {
-        let mut r = Rollout::new(self, eta)?;
-        let Ok(()) = r.integrate(self, self.motion().steps(), &NoCap, sink)?;
-        Ok(r.conclude(self, sink))
+        Self::run_whole(self, Rollout::new(self, eta), sink)
     }
     /// Runs a whole rollout of `eta` (one set of pairs per segment, [`Rollout::of`]) in one
     /// call.
@@ -739,7 +772,22 @@ impl<const N: usize, const K: usize> Task<N, K> {
     /// # Errors
     /// As [`Rollout::of`] and [`Rollout::advance`].
     pub fn rollout_of<S: Sink<N>>(&self, eta: &Eta<K>, sink: &mut S) -> Result<Outcome<N>, Error> {
-        let mut r = Rollout::of(self, eta)?;
+        Self::run_whole(self, Rollout::of(self, eta), sink)
+    }
+
+    /// The rollout `made` run to the end, worked on where it was made: moving it out of
+    /// the `Result` would put a second copy of it (2.5 KB) on the stack. Out of line, so
+    /// that callers running several rollouts hold none in their own frames.
+    #[inline(never)]
+    fn run_whole<S: Sink<N>>(
+        &self,
+        mut made: Result<Rollout<N, K>, Error>,
+        sink: &mut S,
+    ) -> Result<Outcome<N>, Error> {
+        let r = match &mut made {
+            Ok(r) => r,
+            Err(e) => return Err(*e),
+        };
         let Ok(()) = r.integrate(self, self.motion().steps(), &NoCap, sink)?;
         Ok(r.conclude(self, sink))
     }

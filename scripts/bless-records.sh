@@ -10,7 +10,7 @@
 #   scripts/bless-records.sh paper arm12-ms  # only these
 #
 # Each line: record name, task file, seed, refinement tolerance ("-" for none), strategy,
-# what refinement drives (planner or truth), and optionally the integrator (`rk4`; Euler,
+# what refinement drives (planner or truth), and optionally the integrator (`rk4`, `ab5`; Euler,
 # the reference discretization, when absent). Every record is made with --paper (success at
 # σ_e, refined only to the listed tolerance), the settings they were first blessed with,
 # whatever the goal's defaults are. A task with [preshape] is recorded as a two-phase plan,
@@ -42,6 +42,7 @@ arm12-a003-ms     tests/tasks/a/arm12/task_003.toml          4  -     multistart
 arm6-a010-ms      tests/tasks/a/arm6/task_010.toml           5  1e-9  multistart  truth
 paper-rk4-ms      spec/tasks/paper.toml                      1  1e-9  multistart  planner  rk4
 paper-rk4         spec/tasks/paper.toml                      1  1e-6  cpso        planner  rk4
+paper-ab5-ms      spec/tasks/paper.toml                      1  1e-9  multistart  planner  ab5
 fixed-ref0-fa     tests/tasks/fixed/ref/1cm/ref-0.toml       1  1e-9  multistart  planner
 two-chaser7-j20   tests/tasks/g/chaser7/joint20/task_001.toml 1  1e-6  multistart  planner
 two-arm12-j30     tests/tasks/g/arm12/joint30/task_001.toml  1  1e-6  multistart  planner

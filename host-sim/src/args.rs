@@ -161,7 +161,7 @@ pub struct PlanArgs {
     /// What the plan must reach.
     #[command(flatten)]
     pub goal: GoalArgs,
-    /// How rollouts integrate the path: euler (the reference) or rk4 (overrides `[motion]
+    /// How rollouts integrate the path: euler (the reference), rk4 or ab5 (overrides `[motion]
     /// integrator`; the written bundle's task says which).
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<Integrator>,
@@ -182,7 +182,7 @@ impl PlanArgs {
 /// Parses an integrator name (clap value parser).
 pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
     Integrator::from_name(s.trim())
-        .ok_or_else(|| format!("'{s}' is not an integrator (expected euler or rk4)"))
+        .ok_or_else(|| format!("'{s}' is not an integrator (expected euler, rk4 or ab5)"))
 }
 
 /// Parses a strategy name (clap value parser).

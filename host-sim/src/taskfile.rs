@@ -945,8 +945,8 @@ impl LoadedTask {
             return Ok(motion);
         };
         let key = format!("[motion] integrator_step_s = {step}");
-        if m.integrator != Integrator::Rk4 {
-            return Err(self.err(format!("{key}: only with integrator = \"rk4\"")));
+        if m.integrator == Integrator::Euler {
+            return Err(self.err(format!("{key}: only with integrator = \"rk4\" or \"ab5\"")));
         }
         let ratio = step / m.dt_s;
         let stride = ratio.round();

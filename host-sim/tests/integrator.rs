@@ -56,27 +56,7 @@ fn paper_with(dir: &Path, extra: &str) -> PathBuf {
 /// Verifies RL-CONT-006.
 #[test]
 fn an_rk4_task_plans_and_checks() {
-    let tmp = tempfile::tempdir().unwrap();
-    let task = paper_with(tmp.path(), "integrator = \"rk4\"");
-    let out = tmp.path().join("p");
-    let (code, _, err) = host_sim(args!("plan", &task, "--out", &out));
-    assert_eq!(code, Some(0), "{err}");
-    assert!(err.contains("(rk4, step 0.4 s)"), "{err}");
-    let bundle = std::fs::read_to_string(out.join("task.toml")).unwrap();
-    assert!(bundle.contains("integrator = \"rk4\""), "{bundle}");
-    let plan: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
-    let (code, table, err) = host_sim(args!("check", &out));
-    assert_eq!(code, Some(0), "{table}{err}");
-    assert!(table.contains("rows follow q' = q + dt*qd"), "{table}");
-    assert!(
-        table.contains("matches a fresh rollout of eta                  bit for bit"),
-        "{table}"
-    );
-    let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let disturbance = summary["base_disturbance_deg"].as_f64().unwrap();
-    assert!(disturbance <= 1e-5, "{disturbance}");
+    let (tmp, plan) = plans_and_checks("rk4", "0.4");
 
     let flagged = tmp.path().join("q");
     let (code, _, err) = host_sim(args!(
@@ -97,6 +77,47 @@ fn an_rk4_task_plans_and_checks() {
     assert_eq!(code, Some(0), "{table}");
 }
 
+/// `integrator` set in the reference task: it plans (the summary saying the step), the
+/// bundle says it, `check` passes, the flown base disturbance is ≤ 1e-5°. Returns the
+/// directory and the plan.
+fn plans_and_checks(integrator: &str, step: &str) -> (tempfile::TempDir, Value) {
+    let tmp = tempfile::tempdir().unwrap();
+    let task = paper_with(tmp.path(), &format!("integrator = \"{integrator}\""));
+    let out = tmp.path().join("p");
+    let (code, _, err) = host_sim(args!("plan", &task, "--out", &out));
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains(&format!("({integrator}, step {step} s)")),
+        "{err}"
+    );
+    let bundle = std::fs::read_to_string(out.join("task.toml")).unwrap();
+    assert!(
+        bundle.contains(&format!("integrator = \"{integrator}\"")),
+        "{bundle}"
+    );
+    let plan: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    let (code, table, err) = host_sim(args!("check", &out));
+    assert_eq!(code, Some(0), "{table}{err}");
+    assert!(table.contains("rows follow q' = q + dt*qd"), "{table}");
+    assert!(
+        table.contains("matches a fresh rollout of eta                  bit for bit"),
+        "{table}"
+    );
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let disturbance = summary["base_disturbance_deg"].as_f64().unwrap();
+    assert!(disturbance <= 1e-5, "{disturbance}");
+    (tmp, plan)
+}
+
+/// The same for AB5 (step 0.2 s).
+/// Verifies RL-CONT-010.
+#[test]
+fn an_ab5_task_plans_and_checks() {
+    plans_and_checks("ab5", "0.2");
+}
+
 /// A step that is not a whole divisor, a step without rk4, and an unknown integrator are
 /// refused with exit 2, the key named, nothing written.
 /// Verifies RL-CONT-005, RL-CONT-006.
@@ -112,7 +133,10 @@ fn a_bad_integrator_step_is_refused() {
             "integrator = \"rk4\"\nintegrator_step_s = 0.015",
             "must be a whole multiple of dt_s",
         ),
-        ("integrator_step_s = 0.4", "only with integrator = \"rk4\""),
+        (
+            "integrator_step_s = 0.4",
+            "only with integrator = \"rk4\" or \"ab5\"",
+        ),
         ("integrator = \"rk5\"", "rk5"),
     ] {
         let task = paper_with(tmp.path(), extra);
@@ -131,7 +155,7 @@ fn a_bad_integrator_step_is_refused() {
         &tmp.path().join("never")
     ));
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("expected euler or rk4"), "{err}");
+    assert!(err.contains("expected euler, rk4 or ab5"), "{err}");
 }
 
 /// `generate --integrator rk4` writes tasks whose targets are RK4's truth poses and that

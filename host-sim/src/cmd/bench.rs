@@ -50,7 +50,7 @@ pub struct BenchJson {
     /// Rollouts in lanes, per rollout-equivalent (none for an RK4 task: lanes integrate
     /// with Euler only).
     pub lanes: Vec<LanesRun>,
-    /// How the task's rollouts integrate: `"euler"` or `"rk4"`.
+    /// How the task's rollouts integrate: `"euler"`, `"rk4"` or `"ab5"`.
     pub integrator: String,
     /// RK4 tasks: median time of the same η's rollout by the reference Euler
     /// discretization in the same run (µs); `rollout_us` over it is the cost ratio.
@@ -101,7 +101,7 @@ pub struct Args {
     /// What the timed plans must reach (the task's goal by default).
     #[command(flatten)]
     goal: GoalArgs,
-    /// How rollouts integrate the path: euler or rk4 (overrides `[motion] integrator`); an
+    /// How rollouts integrate the path: euler, rk4 or ab5 (overrides `[motion] integrator`); an
     /// RK4 task also times the same η by Euler, for the ratio.
     #[arg(long, value_parser = crate::args::parse_integrator)]
     integrator: Option<reactionless::Integrator>,

@@ -90,7 +90,7 @@ pub struct Args {
     strategy: Option<Strategies>,
     #[command(flatten)]
     goal: GoalArgs,
-    /// How rollouts integrate the path, for every task: euler or rk4 (overrides `[motion]
+    /// How rollouts integrate the path, for every task: euler, rk4 or ab5 (overrides `[motion]
     /// integrator`).
     #[arg(long, value_parser = crate::args::parse_integrator)]
     integrator: Option<reactionless::Integrator>,

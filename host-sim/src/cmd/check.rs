@@ -518,7 +518,7 @@ fn follows_integrator<const N: usize, const K: usize>(
     written: &[Sample<N>],
 ) -> Line {
     let dt = task.motion().dt();
-    let rk4 = task.motion().integrator() == Integrator::Rk4;
+    let rk4 = task.motion().integrator() != Integrator::Euler;
     let mut worst = 0.0f64;
     let euler = written.windows(2).enumerate().find_map(|(row, w)| {
         let (a, b) = (&w[0], &w[1]);
@@ -613,12 +613,16 @@ fn joint_rates<const N: usize>(lt: &LoadedTask, written: &[Sample<N>]) -> Line {
     )
 }
 
-/// q̇ = 0 exactly at the first and the last sample; for RK4, whose first row's rate is the
-/// chord over `[0, dt]` of a path that starts at rest, at the last.
+/// q̇ = 0 exactly at the first and the last sample; for RK4 and AB5, whose first row's rate
+/// is the chord over `[0, dt]` of a path that starts at rest, at the last.
 fn rest_at_both_ends<const N: usize>(written: &[Sample<N>], integrator: Integrator) -> Line {
-    if integrator == Integrator::Rk4 {
+    if integrator != Integrator::Euler {
         let last = written.last().map(|s| &s.qd[..]);
-        return rest_line("qd = 0 at t_f (rk4: row 0 holds the chord)", last, last);
+        let what = format!(
+            "qd = 0 at t_f ({}: row 0 holds the chord)",
+            integrator.name()
+        );
+        return rest_line(&what, last, last);
     }
     rest_line(
         "qd = 0 at t = 0 and t_f",

@@ -85,7 +85,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_family, default_value = "paper")]
     family: Family,
     /// How the targets' rollouts integrate the path, written as `[motion] integrator`:
-    /// euler (the reference, written as nothing) or rk4 (the targets are then RK4's truth
+    /// euler (the reference, written as nothing), rk4 or ab5 (the targets are then that path's truth
     /// poses, whose base drift is far smaller than Euler's).
     #[arg(long, value_parser = crate::args::parse_integrator, default_value = "euler")]
     integrator: reactionless::Integrator,

@@ -126,17 +126,73 @@ fn ab5_integrates_the_same_path_at_fifth_order() {
     assert!(deg <= 1e-6, "{deg}");
 }
 
-/// The basis RK4 (and AB5) carries stays orthonormal (Gram–Schmidt at each node puts it back on
+/// AB5 on a motion of four free-amplitude segments (RK4 again for the first four nodes of
+/// each, the junctions at rest): within 2e-7 m of the path at 0.15 s, bit-identical under
+/// any slicing, and its samples within the reported extrema.
+/// Verifies RL-CONT-009.
+#[test]
+fn ab5_restarts_at_each_segment() {
+    let flat: Vec<f64> = (0..32)
+        .map(|i| (f64::from(i * 7 % 11) / 5.0 - 1.0 + 0.05) * 0.1)
+        .collect();
+    let eta = reactionless::eta_from_flat::<4>(&flat, 4).unwrap();
+    let cut = |integrator, stride| {
+        task(
+            Motion::new(30.0, 0.01, 1)
+                .unwrap()
+                .with_family(reactionless::Family::FreeAmplitude)
+                .with_segments(4)
+                .unwrap()
+                .with_integrator(integrator)
+                .unwrap()
+                .with_integrator_stride(stride)
+                .unwrap(),
+        )
+    };
+    let (ab, path) = (cut(Integrator::Ab5, 15), cut(Integrator::Rk4, 1));
+    let o = ab.rollout_of(&eta, &mut ()).unwrap();
+    let off = dist(
+        &o.end_pose.position,
+        &path.rollout_of(&eta, &mut ()).unwrap().end_pose.position,
+    );
+    println!("AB5, four segments, step 0.15 s: end position off the path {off:e} m");
+    // 8.0e-8 m: this family's faster paths (RK4 at the same step: 5e-11 m) leave AB5
+    // further off than the reference task's 5e-9 m at 0.2 s.
+    assert!(off <= 2e-7, "{off}");
+    let mut samples = Vec::new();
+    let whole = ab
+        .rollout_of(&eta, &mut |s: &Sample<7>| samples.push(*s))
+        .unwrap();
+    assert_eq!(bits(&whole), bits(&o));
+    assert_eq!(samples.len(), 3001);
+    for s in &samples {
+        for j in 0..7 {
+            assert!(o.joint_min[j] <= s.q[j] && s.q[j] <= o.joint_max[j]);
+            assert!(s.qd[j].abs() <= o.max_abs_qd * (1.0 + 1e-12));
+        }
+    }
+    for budget in [1, 14, 15, 16, 749, 751] {
+        let mut r = Rollout::of(&ab, &eta).unwrap();
+        let done = loop {
+            if let Progress::Done(d) = r.advance(&ab, budget, &mut ()).unwrap() {
+                break d;
+            }
+        };
+        assert_eq!(bits(&done), bits(&o), "budget {budget}");
+    }
+}
+
+/// The basis RK4 carries stays orthonormal (AB5's to its integration error) (Gram–Schmidt at each node puts it back on
 /// `NᵀN = I`) and in the null space of `H~bm` to the integrator's accuracy.
 /// Verifies RL-CONT-002.
 #[test]
 fn rk4_basis_stays_orthonormal_in_the_null_space() {
-    for t in [rk4(40), ab5(20)] {
-        basis_stays_orthonormal(&t);
-    }
+    basis_stays_orthonormal(&rk4(40), 1e-9);
+    // AB5 does not project: its basis is off orthonormal by its integration error.
+    basis_stays_orthonormal(&ab5(20), 1e-6);
 }
 
-fn basis_stays_orthonormal(t: &Task<7, 4>) {
+fn basis_stays_orthonormal(t: &Task<7, 4>, tol: f64) {
     let mut r = Rollout::new(t, &ETA_HAT).unwrap();
     let Progress::Done(o) = r.advance(t, u32::MAX, &mut ()).unwrap() else {
         unreachable!("an unlimited budget finishes")
@@ -148,7 +204,7 @@ fn basis_stays_orthonormal(t: &Task<7, 4>) {
         for (j, cj) in cols.iter().enumerate() {
             let d: f64 = ci.iter().zip(cj).map(|(x, y)| x * y).sum();
             let want = if i == j { 1.0 } else { 0.0 };
-            assert!((d - want).abs() < 1e-9, "NᵀN[{i}][{j}] = {d}");
+            assert!((d - want).abs() < tol, "NᵀN[{i}][{j}] = {d}");
         }
         let an: f64 = a
             .iter()

@@ -21,7 +21,7 @@
 //! | 6·8 | end effector: xyz, rpy |
 //! | N·8 | start q₀ (rad) |
 //! | 7·8 | target: position (m), quaternion `[w, x, y, z]` |
-//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–7 the degree; bits 8–15 the integrator, 0 for Euler or RK4's stride `1..=255` ([`Motion::with_integrator_stride`]); bits 16–23 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 24–31 the segment count less one, [`Motion::with_segments`]) |
+//! | 2·8 + 4 | `t_f`, `dt` (s); `n` (u32: bits 0–7 the degree; bits 8–15 the integrator's stride, 0 for Euler or the samples per step `1..=255` of RK4 or AB5 ([`Motion::with_integrator_stride`]); bits 16–19 the motion family, [`Family::code`]: 0 paper, 1 free amplitude; bits 20–23 the integrator where the stride does not say it: 0 for Euler (stride 0) and RK4 (stride ≥ 1), 2 for AB5; bits 24–31 the segment count less one, [`Motion::with_segments`]) |
 //! | 4 + 4 | particles, max_iterations (u32) |
 //! | 6·8 | c1, c2, w_max, w_min, tolerance, eta_bound |
 //! | 8 | seed (u64) |
@@ -213,7 +213,11 @@ impl<const N: usize> TaskBlock<N> {
     /// [`TaskBlock::stride`]).
     fn integrate(&self, motion: Motion) -> Result<Motion, Error> {
         match self.integrator {
-            Integrator::Euler => Ok(motion),
+            Integrator::Euler if self.stride == 0 => Ok(motion),
+            // What `encode` refuses too: a stride names RK4 or AB5.
+            Integrator::Euler => Err(Error::StrideUneven {
+                stride: self.stride,
+            }),
             other => motion
                 .with_integrator(other)?
                 .with_integrator_stride(self.stride),
@@ -827,6 +831,15 @@ mod tests {
             };
             assert_eq!(encode(&bad, &mut b), Err(Error::Block(BlockFault::Field)));
         }
+        // Loading refuses a stride for Euler too (a stride names RK4 or AB5).
+        let euler_with_stride = TaskBlock {
+            stride: 40,
+            ..block()
+        };
+        assert_eq!(
+            euler_with_stride.load_into(&mut planner),
+            Err(Error::StrideUneven { stride: 40 })
+        );
     }
 
     /// An AB5 block carries its stride as RK4's does and code 2 in bits 20–23 of the degree

@@ -376,32 +376,25 @@ impl<const N: usize> Executor<N> {
             let bound = dv.min(get(&qd_limit, i));
             v.max(-bound).min(bound)
         });
-        let exec = Self {
-            config,
-            // In range by the check above.
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            plan_cycles: cycles as u32,
-            cycle: 0,
-            com0: Frames::new(robot, q0).com,
-            qd_limit,
-            plan_next: *plan_first,
-            applying: first,
-            applied: [0.0; N],
-            joints: *q0,
-            reckoned: *q0,
-            attitude: IDENTITY_WXYZ,
-            gyro_rotation: IDENTITY_WXYZ,
-            initial: IDENTITY_WXYZ,
-            readings: 0,
-            drift: Vec3::zeros(),
-            missing: [0; 3],
-            mode: Mode::Nominal,
-        };
+        let mut exec = Self::parked(config);
+        // In range by the check above.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        {
+            exec.plan_cycles = cycles as u32;
+        }
+        exec.com0 = Frames::new(robot, q0).com;
+        exec.qd_limit = qd_limit;
+        exec.plan_next = *plan_first;
+        exec.applying = first;
+        exec.joints = *q0;
+        exec.reckoned = *q0;
+        exec.mode = Mode::Nominal;
         Ok((exec, first))
     }
 
-    /// A placeholder that flies nothing (no cycles, at rest at the origin), replaced by
-    /// [`Executor::new`] before any use ([`PlanLoop::start_in`]).
+    /// An executor that flies nothing (no cycles, at rest at the origin, done): what
+    /// [`Executor::new`] starts from, and the placeholder [`PlanLoop::start_in`] replaces
+    /// before any use.
     fn parked(config: LoopConfig) -> Self {
         Self {
             config,

@@ -45,8 +45,9 @@ impl<const N: usize, const K: usize> Setpoints<N, K> {
     }
 
     /// The next setpoint (`t` from 0 to `t_f` in steps of `dt`), or `None` after the last.
-    /// Each call does at most one integration step (with [`crate::Integrator::Rk4`], a call
-    /// at an integrator node does the whole RK4 step to the next node).
+    /// Each call does at most one integration step (with [`crate::Integrator::Rk4`] or
+    /// [`crate::Integrator::Ab5`], a call at an integrator node does the whole step to the
+    /// next node).
     ///
     /// # Errors
     /// As [`Rollout::advance`] (rank loss, non-finite state); the stream then stays failed.

@@ -221,7 +221,7 @@ pub fn ab5_step<const N: usize, const K: usize>(
     let [b0, b1, b2, b3, b4] = AB5;
     let [f0, f1, f2, f3, f4] = rates;
     let mut acc = ([0.0; N], [[0.0; N]; K]);
-    accumulate(&mut acc, b0, f0);
+    offset(&mut acc, &[0.0; N], &[[0.0; N]; K], b0, f0);
     accumulate(&mut acc, b1, f1);
     accumulate(&mut acc, b2, f2);
     accumulate(&mut acc, b3, f3);

@@ -310,12 +310,8 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         Self {
             law,
             step,
-            // The integrator's `q` at its last node: the start, until the first step.
-            span: Span {
-                q: state.q,
-                ..Span::IDLE
-            },
             state,
+            span: Span::IDLE,
             phi_cap: f64::INFINITY,
             phase: Phase::Running,
         }
@@ -577,12 +573,21 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         let (ab, inv_g) = self.law.weights(k as usize);
         let ab = *ab;
         let at = |t: f64, cols: &[[f64; N]; K]| {
-            Basis::<N, K>::combine_columns(cols, &alpha(&ab, inv_g, grid.tf(), grid.degree(), t))
+            Basis::<N, K>::from_columns(*cols).combine(&alpha(
+                &ab,
+                inv_g,
+                grid.tf(),
+                grid.degree(),
+                t,
+            ))
         };
         let mut rates_with = |qd: [f64; N], q: &[f64; N], cols: &[[f64; N]; K]| {
             let (a, a_dot) = coupling_rate(robot, frames, q, &qd);
             Ok((qd, Basis::rate_of(cols, &a, &a_dot)?))
         };
+        if self.step == 0 {
+            self.span.q = self.state.q;
+        }
         let stride = motion.stride();
         let (t0, t1) = (grid.time(local), grid.time(local + stride));
         let h = t1 - t0;

@@ -232,15 +232,8 @@ impl<const N: usize, const K: usize, T: Real> Basis<N, K, T> {
     #[inline(always)]
     #[must_use]
     pub fn combine(&self, alpha: &[T; K]) -> [T; N] {
-        Self::combine_columns(&self.cols, alpha)
-    }
-
-    /// [`Basis::combine`] of columns `cols` as given (the continuous-path integrator's
-    /// stages), without copying them into a basis.
-    #[inline(always)]
-    pub(crate) fn combine_columns(cols: &[[T; N]; K], alpha: &[T; K]) -> [T; N] {
         let mut out = [T::ZERO; N];
-        for (col, &w) in cols.iter().zip(alpha.iter()) {
+        for (col, &w) in self.cols.iter().zip(alpha.iter()) {
             for (o, c) in out.iter_mut().zip(col.iter()) {
                 *o += w * *c;
             }

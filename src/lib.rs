@@ -75,7 +75,7 @@ pub mod search;
 // group them by layer, the paths stay what they were.
 pub use flight::{block, closed_loop, execute, planner, reference, twophase};
 pub use path::{batch, digest, integrator, preshape, retime, rollout, task, trajectory, truth};
-pub use physics::{geometry, kinematics, model, momentum, nullspace};
+pub use physics::{collision, geometry, kinematics, model, momentum, nullspace};
 pub use search::{config, cpso, multistart, optimizer, random, refine, strategy, swarm};
 
 pub use config::{

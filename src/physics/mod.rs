@@ -3,11 +3,13 @@
 //! Owns the rigid-body description and the quantities of a single configuration `q`:
 //! [`geometry`] (rotations, quaternions, pose error), [`model`] (the robot, validated once),
 //! [`kinematics`] (forward kinematics of the free-floating chain), [`momentum`] (`H~b`,
-//! `H~bm`) and [`nullspace`] (the reaction null-space basis and its transport).
+//! `H~bm`) and [`nullspace`] (the reaction null-space basis and its transport) and [`collision`]
+//! (collision primitives and their signed distance, spec §13).
 //!
 //! May use: [`crate::error`] and [`crate::lanes`]. Nothing here knows of a path, a time
 //! law, a search or a planner.
 
+pub mod collision;
 pub mod geometry;
 pub mod kinematics;
 pub mod model;

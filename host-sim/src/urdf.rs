@@ -9,8 +9,15 @@
 //!
 //! Where nothing needs composing or merging, values are passed through untouched, so a URDF
 //! written like `spec/chaser7.urdf` loads to exactly the bits of [`reactionless::CHASER7`].
+//!
+//! Collision geometry (spec §13): every `<collision>` of a body's links, placed in the
+//! body's frame ([`Collider`]). Spheres, boxes and `<capsule>`s are read as they are; a
+//! `<cylinder>` whose `<collision name>` contains `capsule` is the capsule of that radius
+//! and segment length (the convention of Pinocchio users, whose URDF parser has no
+//! capsule); any other cylinder and every mesh are refused, naming the link.
 
 use crate::error::{CliError, Context};
+use reactionless::collision::Shape;
 use reactionless::geometry::{Mat3, Sym3, Vec3, matrix_rpy, rpy_matrix};
 use reactionless::{BodyDesc, Inertia, JointDesc, Origin, Robot};
 use std::collections::BTreeMap;
@@ -42,9 +49,27 @@ pub struct Chain {
     pub links: Vec<BodyDesc>,
     /// End-effector frame in the last body's frame.
     pub end_effector: Origin,
+    /// Collision primitives of each body: the base, then links `1..=N`.
+    pub collision: Vec<Vec<Collider>>,
+}
+
+/// A collision primitive of a body, in the body's frame (spec §13).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Collider {
+    /// For reports: the `<collision name>`, else `<link>/<k>` (`k`-th of that URDF link).
+    pub name: String,
+    /// The primitive (m).
+    pub shape: Shape,
+    /// The primitive's frame in the body's frame.
+    pub origin: Origin,
 }
 
 impl Chain {
+    /// Number of collision primitives on the robot (base and links).
+    pub fn collider_count(&self) -> usize {
+        self.collision.iter().map(Vec::len).sum()
+    }
+
     /// Number of revolute joints `N`.
     pub fn dof(&self) -> usize {
         self.joints.len()
@@ -147,10 +172,46 @@ pub fn write(chain: &Chain) -> String {
             .replace('>', "&gt;")
             .replace('"', "&quot;")
     };
-    let link = |name: &str, b: &BodyDesc| {
+    let collisions = |cs: &[Collider]| {
+        let mut out = String::new();
+        for c in cs {
+            let (name, geometry) = match c.shape {
+                Shape::Sphere { radius } => (
+                    c.name.clone(),
+                    format!("<sphere radius=\"{}\"/>", n(radius)),
+                ),
+                Shape::Box { half } => (
+                    c.name.clone(),
+                    format!("<box size=\"{}\"/>", v3(half.map(|h| 2.0 * h))),
+                ),
+                Shape::Capsule { length, radius } => (
+                    if c.name.to_ascii_lowercase().contains("capsule") {
+                        c.name.clone()
+                    } else {
+                        format!("{}_capsule", c.name)
+                    },
+                    format!(
+                        "<cylinder radius=\"{}\" length=\"{}\"/>",
+                        n(radius),
+                        n(length)
+                    ),
+                ),
+            };
+            out.push_str(&format!(
+                "    <collision name=\"{}\"><origin xyz=\"{}\" rpy=\"{}\"/><geometry>{geometry}</geometry></collision>\n",
+                esc(&name),
+                v3(c.origin.xyz),
+                v3(c.origin.rpy)
+            ));
+        }
+        out
+    };
+    let none: Vec<Collider> = Vec::new();
+    let body_collisions = |k: usize| collisions(chain.collision.get(k).unwrap_or(&none));
+    let link = |name: &str, b: &BodyDesc, k: usize| {
         let i = &b.inertia;
         format!(
-            "  <link name=\"{}\">\n    <inertial><origin xyz=\"{}\" rpy=\"{}\"/><mass value=\"{}\"/>\n      <inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\"/></inertial>\n  </link>\n",
+            "  <link name=\"{}\">\n    <inertial><origin xyz=\"{}\" rpy=\"{}\"/><mass value=\"{}\"/>\n      <inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\"/></inertial>\n{}  </link>\n",
             esc(name),
             v3(b.inertial.xyz),
             v3(b.inertial.rpy),
@@ -160,7 +221,8 @@ pub fn write(chain: &Chain) -> String {
             n(i.ixz),
             n(i.iyy),
             n(i.iyz),
-            n(i.izz)
+            n(i.izz),
+            body_collisions(k)
         )
     };
     let mut out = format!(
@@ -168,13 +230,14 @@ pub fn write(chain: &Chain) -> String {
         env!("CARGO_PKG_VERSION"),
         esc(&chain.name)
     );
-    out.push_str(&link(&chain.base_link, &chain.base));
+    out.push_str(&link(&chain.base_link, &chain.base, 0));
     let mut parent = chain.base_link.as_str();
-    for ((j, name), (l, lname)) in chain
+    for (k, ((j, name), (l, lname))) in chain
         .joints
         .iter()
         .zip(&chain.joint_names)
         .zip(chain.links.iter().zip(&chain.link_names))
+        .enumerate()
     {
         out.push_str(&format!(
             "  <joint name=\"{}\" type=\"revolute\">\n    <parent link=\"{}\"/><child link=\"{}\"/>\n    <origin xyz=\"{}\" rpy=\"{}\"/><axis xyz=\"{}\"/>\n    <limit lower=\"{}\" upper=\"{}\" velocity=\"{}\" effort=\"100\"/>\n  </joint>\n",
@@ -188,7 +251,7 @@ pub fn write(chain: &Chain) -> String {
             n(j.upper),
             n(j.velocity)
         ));
-        out.push_str(&link(lname, l));
+        out.push_str(&link(lname, l, k + 1));
         parent = lname;
     }
     if chain.ee_link != parent {
@@ -288,9 +351,11 @@ pub fn parse(text: &str, ee: Option<&str>) -> Result<Chain, String> {
         ));
     }
     let mut descs = Vec::with_capacity(bodies.len());
+    let mut collision = Vec::with_capacity(bodies.len());
     let names = std::iter::once(root.to_string()).chain(collapsed.link_names.iter().cloned());
     for (name, parts) in names.zip(&bodies) {
         descs.push(merge(&name, parts)?);
+        collision.push(colliders(parts)?);
     }
     let mut descs = descs.into_iter();
     let base = descs.next().ok_or("internal: no base body")?;
@@ -304,7 +369,72 @@ pub fn parse(text: &str, ee: Option<&str>) -> Result<Chain, String> {
         joints: collapsed.joints,
         links: descs.collect(),
         end_effector: collapsed.ee_origin,
+        collision,
     })
+}
+
+/// The collision primitives of one body's parts, in the body's frame.
+fn colliders(parts: &[Part]) -> Result<Vec<Collider>, String> {
+    let mut out = Vec::new();
+    for p in parts {
+        for (k, c) in p.link.collision.iter().enumerate() {
+            let link = &p.link.name;
+            let shape = collision_shape(link, c)?;
+            let origin = match p.in_body {
+                None => pose_origin(&c.origin),
+                Some(tf) => tf.then(&Tf::from_pose(&c.origin)).origin(),
+            };
+            let name = match &c.name {
+                Some(n) if !n.is_empty() => n.clone(),
+                _ => format!("{link}/{k}"),
+            };
+            out.push(Collider {
+                name,
+                shape,
+                origin,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The primitive of a `<collision>` of `link`, or why it is refused.
+fn collision_shape(link: &str, c: &urdf_rs::Collision) -> Result<Shape, String> {
+    use urdf_rs::Geometry as G;
+    let named_capsule = c
+        .name
+        .as_deref()
+        .is_some_and(|n| n.to_ascii_lowercase().contains("capsule"));
+    let shape = match &c.geometry {
+        G::Sphere { radius } => Shape::Sphere { radius: *radius },
+        G::Box { size } => Shape::Box {
+            half: size.0.map(|v| 0.5 * v),
+        },
+        G::Capsule { radius, length } => Shape::Capsule {
+            length: *length,
+            radius: *radius,
+        },
+        G::Cylinder { radius, length } if named_capsule => Shape::Capsule {
+            length: *length,
+            radius: *radius,
+        },
+        G::Cylinder { .. } => {
+            return Err(format!(
+                "link '{link}': a <collision> <cylinder> is read only as a capsule: name the <collision> '…capsule…' (or use <capsule>, <box>, <sphere>)"
+            ));
+        }
+        G::Mesh { filename, .. } => {
+            return Err(format!(
+                "link '{link}': <collision> mesh '{filename}' is not supported: use <sphere>, <box> or a capsule"
+            ));
+        }
+    };
+    if !shape.is_valid() {
+        return Err(format!(
+            "link '{link}': <collision> has a negative or non-finite size ({shape:?})"
+        ));
+    }
+    Ok(shape)
 }
 
 /// The link graph of a URDF: links by name, each link's parent joint and child joints,

@@ -5,6 +5,8 @@
 //! penetration depth when they overlap. Support functions give that separation exactly for
 //! spheres, capsules and boxes, so any set of directions gives a lower bound, and a search
 //! over directions approaches the value from below.
+//!
+//! Requirements: RL-COLL (docs/requirements.md).
 
 #![allow(clippy::indexing_slicing, missing_docs)]
 
@@ -111,7 +113,7 @@ fn is_capsule_like(s: &Shape) -> bool {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(1000))]
 
-    /// RL-COLL-001: the signed distance is never below the best separating direction
+    /// The signed distance is never below the best separating direction
     /// (it is the largest separation), and a direction search comes within 1e-2 m of it (the search, not the
     /// distance, limits this: exactness is the closed cases' and the coal checker's job),
     /// apart or overlapping, for every pair of primitives. Two capsule-like cores that
@@ -130,7 +132,9 @@ proptest! {
     }
 }
 
-/// RL-COLL-001: closed cases.
+/// Closed cases: faces, a vertex, an edge, overlapping boxes, a capsule across and
+/// through a box, spheres and parallel capsules.
+/// Verifies RL-COLL-001.
 #[test]
 fn closed_cases() {
     let id = [0.0; 3];
@@ -183,7 +187,8 @@ fn closed_cases() {
     assert!((signed_distance(&c(0.0), &c(0.5)) - 0.3).abs() < 1e-15);
 }
 
-/// RL-COLL-002: sizes must be finite and ≥ 0 (a zero size is a plate, a point or a segment).
+/// Sizes must be finite and ≥ 0 (a zero size is a plate, a point or a segment).
+/// Verifies RL-COLL-002.
 #[test]
 fn validity() {
     assert!(

@@ -18,7 +18,9 @@ pub struct Run {
     pub strategy: String,
     /// Seed.
     pub seed: u64,
-    /// `converged` (what was asked is met, see `asked`) or `not_converged`.
+    /// `converged` (what was asked is met, see `asked`, and the path keeps any required
+    /// clearance), `collides` (converged, but closer than `[collision] clearance_m`) or
+    /// `not_converged`.
     pub status: String,
     /// Why planning stopped: `converged`, `exhausted` (a budget was spent first) or
     /// `stalled` (no step got closer: for a 6-joint arm, the target's floor).
@@ -43,7 +45,11 @@ pub struct Run {
     pub truth_f: f64,
     /// Whether a feasible rollout had f ≤ σ_e (the paper's test) at some point.
     pub sigma_e_met: bool,
-    /// Wall time of planning (s).
+    /// Smallest clearance of the written path (m, `crate::clearance`); empty where the task
+    /// requires none (and in runs.csv files written before it).
+    #[serde(default)]
+    pub clearance_m: Option<f64>,
+    /// Wall time of planning (s), the last column.
     pub wall_time_s: f64,
 }
 
@@ -218,6 +224,7 @@ mod tests {
             base_disturbance_deg: 1.44,
             truth_f: 97.57,
             sigma_e_met: true,
+            clearance_m: None,
             wall_time_s: wall,
         }
     }

@@ -4,7 +4,8 @@
 //! and checks them. Exit codes: 0 success, 1 a result that does not pass, 2 bad input.
 //! The binary is a thin CLI over this library; tests use the library directly.
 //!
-//! Data flows one way: `taskfile`/`urdf` (inputs, with `goal`: what a plan must reach) → `drive` (the planner) → `artifacts`,
+//! Data flows one way: `urdf`/`clearance` (the robot, its collision geometry and a path's
+//! clearance) → `taskfile` (inputs, with `goal`: what a plan must reach) → `drive` (the planner) → `artifacts`,
 //! `records`, `plots`, `view` (outputs, through `output`'s atomic writes), `flight` (the task
 //! block of the flight image and C clients), `dispersion`/`sensors` → `closed_loop` (the
 //! core's executor flown on the truth model) → `cmd/*` (one leaf per
@@ -16,6 +17,7 @@
 pub mod args;
 pub mod artifacts;
 pub mod campaign_report;
+pub mod clearance;
 pub mod cli;
 pub mod closed_loop;
 pub mod cmd;

@@ -139,6 +139,8 @@ pub enum FileKind {
     Block,
     /// A dispersed robot (`disperse --export-sample`).
     Urdf,
+    /// A path's clearance (`check --clearance-json`).
+    Clearance,
 }
 
 impl FileKind {
@@ -150,6 +152,7 @@ impl FileKind {
             FileKind::Page => has("reactionless: the 3-D replay page"),
             FileKind::Block => bytes.starts_with(b"RLTASK"),
             FileKind::Urdf => has("<!-- written by host-sim"),
+            FileKind::Clearance => has("\"format\": \"reactionless-clearance/"),
         }
     }
 
@@ -159,6 +162,7 @@ impl FileKind {
             FileKind::Page => "a replay page",
             FileKind::Block => "a task block",
             FileKind::Urdf => "a URDF written by host-sim",
+            FileKind::Clearance => "a clearance report",
         }
     }
 }

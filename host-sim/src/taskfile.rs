@@ -4,6 +4,7 @@
 //! angles are degrees (`_deg`), everything else SI with the unit in the key name. Paths are
 //! relative to the task file. Every error names the file, the key and the value.
 
+use crate::clearance::{CollisionSection, KeepOutSection};
 use crate::error::{CliError, Context};
 use crate::goal::{Asked, Goal};
 use crate::urdf::{self, Chain};
@@ -52,6 +53,15 @@ pub struct TaskFile {
     /// see `crate::closed_loop`).
     #[serde(default)]
     pub closed_loop: LoopSection,
+    /// `[[keep_out]]`: volumes of the inertial frame the robot must keep out of (spec §13,
+    /// see `crate::clearance`).
+    #[serde(default)]
+    pub keep_out: Vec<KeepOutSection>,
+    /// `[collision]`: the required clearance and the pairs not checked. Its presence (or
+    /// a `[[keep_out]]`) makes clearance a requirement of the plan and of `check`; without
+    /// either, the clearance of the robot's own geometry is reported, not required.
+    #[serde(default)]
+    pub collision: Option<CollisionSection>,
 }
 
 /// One number for every joint, or one per joint.
@@ -828,6 +838,14 @@ impl LoadedTask {
                 self.err(format!("[preshape] {name}: {e}"))
             })?;
         }
+        let q0: Vec<f64> = self
+            .file
+            .start
+            .q_deg
+            .iter()
+            .map(|d| d.to_radians())
+            .collect();
+        self.scene(&q0)?;
         let t = &self.file.target.position_m;
         if t.len() == 3 && t.iter().all(|v| v.is_finite()) {
             let distance = t.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -839,6 +857,19 @@ impl LoadedTask {
             }
         }
         Ok(())
+    }
+
+    /// The collision scene of this task (`crate::clearance`) with the robot at `q0` (rad) at
+    /// the start: the URDF's geometry, `[[keep_out]]` and `[collision]`, checked.
+    pub fn scene(&self, q0: &[f64]) -> Result<crate::clearance::Scene, CliError> {
+        crate::clearance::Scene::new(
+            &self.chain,
+            &self.file.keep_out,
+            self.file.collision.as_ref(),
+            q0,
+            &|m| self.err(m),
+            &self.urdf_path,
+        )
     }
 
     /// The farthest the end effector can be from the base frame's origin at `t = 0` (m): the

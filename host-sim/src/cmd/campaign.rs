@@ -48,6 +48,7 @@ fn one<const N: usize, const K: usize>(
             base_disturbance_deg: truth.as_ref().map_or(f64::NAN, |t| t.base_disturbance_deg),
             truth_f: truth.as_ref().map_or(f64::NAN, |t| t.f),
             sigma_e_met: o.is_some_and(|o| o.phi == 0.0 && o.f <= asked.sigma_e),
+            clearance_m: None,
             wall_time_s: seconds,
         });
     }
@@ -55,12 +56,26 @@ fn one<const N: usize, const K: usize>(
     let done = drive::plan::<N, K>(lt, config, false)?;
     let p = done.plan;
     let truth = write_rollout(&task, &p.eta, None, false)?.truth;
+    // The written path's clearance, where the task requires one: a run that reaches the
+    // target but violates it is not a success.
+    let q0: Vec<f64> = lt.file.start.q_deg.iter().map(|d| d.to_radians()).collect();
+    let scene = lt.scene(&q0)?;
+    let sweep = if scene.enforced && !scene.is_empty() {
+        let (times, qs) = crate::clearance::path_of(&task, &p.eta)?;
+        Some(scene.sweep(&times, &qs))
+    } else {
+        None
+    };
+    let status = match &sweep {
+        Some(s) if p.converged() && !s.pass() => "collides",
+        _ => status_name(p.converged()),
+    };
     Ok(Run {
         task: lt.path.display().to_string(),
         robot: lt.chain.name.clone(),
         strategy: config.strategy.name().to_string(),
         seed: config.seed,
-        status: status_name(p.converged()).to_string(),
+        status: status.to_string(),
         stop: p.stop.name().to_string(),
         asked: asked.describe(),
         iterations: p.iterations,
@@ -72,6 +87,7 @@ fn one<const N: usize, const K: usize>(
         base_disturbance_deg: truth.base_disturbance_deg,
         truth_f: truth.f,
         sigma_e_met: p.first_hit.is_some(),
+        clearance_m: sweep.and_then(|s| s.worst().map(|w| w.min_m)),
         wall_time_s: done.seconds,
     })
 }

@@ -23,11 +23,17 @@
 //! the written samples against `[preshape]`, phase 2's frame and the standoff; then phase
 //! 2's bundle as above.
 //!
+//! With collision geometry in the URDF or `[[keep_out]]`s in the task, also the clearance
+//! of the written path (spec §13, `crate::clearance`): the smallest signed distance of every
+//! checked pair over the piecewise-linear path between the samples, with no tunnelling,
+//! against `[collision] clearance_m`; `--clearance-json FILE` writes it pair by pair.
+//!
 //! Prints a table. Exit 0 if everything passes, 1 if anything fails, 2 if the directory
 //! cannot be read as a host-sim output.
 
 use crate::args::parse_eta;
 use crate::artifacts::{Summary, read_bundle, read_output_file};
+use crate::clearance::{PairMin, RESOLUTION_M, Scene, Side, Sweep};
 use crate::error::{CliError, Context};
 use crate::goal::{Asked, Goal, number};
 use crate::output::read_trajectory_csv;
@@ -48,11 +54,19 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     /// Output directory of `plan` or `rollout`.
     dir: PathBuf,
+    /// Also write the path's clearance, pair by pair, to this JSON file (the smallest
+    /// signed distance of each pair in m, when, between which primitives, and at the
+    /// written samples only).
+    #[arg(long, value_name = "FILE")]
+    clearance_json: Option<PathBuf>,
 }
 
 impl Args {
     /// Runs the subcommand: prints the table, fails with exit code 1 if a check fails.
     pub fn run(self) -> Result<(), CliError> {
+        if let Some(file) = &self.clearance_json {
+            write_clearance_json(&self.dir, file)?;
+        }
         run(&self.dir)
     }
 }
@@ -219,6 +233,7 @@ fn verify_retimed<const N: usize, const K: usize>(
     ];
     lines.extend(pose_lines(&asked, &task, &samples, &truth));
     lines.push(base_disturbance(lt, &truth));
+    lines.extend(clearance_lines(lt, &samples)?);
     Ok(lines)
 }
 
@@ -441,7 +456,129 @@ fn verify_n<const N: usize, const K: usize>(
     let asked = lt.asked(&lt.file.planner, false)?;
     lines.extend(pose_lines(&asked, &task, &written, &truth));
     lines.push(base_disturbance(lt, &truth));
+    lines.extend(clearance_lines(lt, &written)?);
     Ok(lines)
+}
+
+/// The clearance of the written path, if the robot or the task has collision geometry.
+fn sweep_of<const N: usize>(
+    lt: &LoadedTask,
+    written: &[Sample<N>],
+) -> Result<Option<(Scene, Sweep)>, CliError> {
+    let q0: Vec<f64> = match written.first() {
+        Some(s) => s.q.to_vec(),
+        None => return Ok(None),
+    };
+    let scene = lt.scene(&q0)?;
+    if scene.is_empty() {
+        return Ok(None);
+    }
+    let times: Vec<f64> = written.iter().map(|s| s.t).collect();
+    let qs: Vec<Vec<f64>> = written.iter().map(|s| s.q.to_vec()).collect();
+    let sweep = scene.sweep(&times, &qs);
+    Ok(Some((scene, sweep)))
+}
+
+/// The smallest clearance over every pair, and a line for every other pair that fails.
+fn clearance_lines<const N: usize>(
+    lt: &LoadedTask,
+    written: &[Sample<N>],
+) -> Result<Vec<Line>, CliError> {
+    let Some((scene, sweep)) = sweep_of(lt, written)? else {
+        return Ok(Vec::new());
+    };
+    let limit = if sweep.enforced {
+        format!(
+            ">= {} m + {RESOLUTION_M:e} m between samples ([collision] clearance_m)",
+            sweep.required_m
+        )
+    } else {
+        "not required (the task has no [collision] and no [[keep_out]])".to_string()
+    };
+    let describe = |p: &PairMin| {
+        let (a, b) = scene.part_names(p);
+        format!(
+            "{:.6} m, {} ({a}, {b}) at t = {:.2} s{}",
+            p.min_m,
+            scene.pair_name(p.pair),
+            p.t_s,
+            if p.resolved { "" } else { " (unresolved)" }
+        )
+    };
+    let ok =
+        |p: &PairMin| !sweep.enforced || (p.resolved && p.min_m - RESOLUTION_M >= sweep.required_m);
+    let mut lines = Vec::new();
+    if let Some(w) = sweep.worst() {
+        lines.push(line(
+            &format!("clearance ({} pairs)", sweep.pairs.len()),
+            describe(w),
+            limit.clone(),
+            sweep.pass(),
+        ));
+        for p in sweep.pairs.iter().filter(|p| !ok(p) && p.pair != w.pair) {
+            lines.push(line("clearance", describe(p), limit.clone(), false));
+        }
+    }
+    Ok(lines)
+}
+
+/// `--clearance-json`: the written path's clearance, every pair.
+fn write_clearance_json(dir: &Path, file: &Path) -> Result<(), CliError> {
+    let lt = read_bundle(dir)?;
+    let csv = read_output_file(dir, "trajectory.csv")?;
+    let report = with_dims!(lt.chain.dof(), clearance_json, &lt, dir, &csv)?;
+    crate::output::write_file(file, report.as_bytes(), crate::output::FileKind::Clearance)
+}
+
+fn clearance_json<const N: usize, const K: usize>(
+    lt: &LoadedTask,
+    dir: &Path,
+    csv: &str,
+) -> Result<String, CliError> {
+    let written = read_trajectory_csv::<N>(dir, csv)?;
+    let Some((scene, sweep)) = sweep_of(lt, &written)? else {
+        return Err(CliError::input(format!(
+            "{}: no collision geometry and no keep-out: there is no clearance to write",
+            dir.display()
+        )));
+    };
+    let side = |s: Side| match s {
+        Side::Body(i) => scene.body_names[i].clone(),
+        Side::KeepOut(k) => scene.keep_outs[k].name.clone(),
+    };
+    let pairs: Vec<serde_json::Value> = sweep
+        .pairs
+        .iter()
+        .map(|p| {
+            let (pa, pb) = scene.part_names(p);
+            serde_json::json!({
+                "a": side(p.pair.0),
+                "b": side(p.pair.1),
+                "b_is_keep_out": matches!(p.pair.1, Side::KeepOut(_)),
+                "a_part": pa,
+                "b_part": pb,
+                "min_m": p.min_m,
+                "t_s": p.t_s,
+                "min_at_samples_m": p.min_at_samples_m,
+                "sample": p.sample,
+                "resolved": p.resolved,
+            })
+        })
+        .collect();
+    let doc = serde_json::json!({
+        "format": "reactionless-clearance/1",
+        "required_m": sweep.required_m,
+        "resolution_m": RESOLUTION_M,
+        "required": sweep.enforced,
+        "clear": sweep.clear(),
+        "pass": sweep.pass(),
+        "evaluations_between_samples": sweep.evaluations,
+        "pairs": pairs,
+    });
+    let mut text =
+        serde_json::to_string_pretty(&doc).map_err(|e| CliError::internal(e.to_string()))?;
+    text.push('\n');
+    Ok(text)
 }
 
 /// Sample count `t_f/dt + 1` and the time grid `t_s = s·dt`, to the bit.

@@ -19,11 +19,19 @@
 //! - `perturbed`: a rollout target as above, then moved by `--move-m` in a uniformly random
 //!   direction and turned by `--move-deg` about a uniformly random axis.
 //!
+//! `--keep-out-radius-m R` (rollout targets) puts a spherical keep-out of radius `R` across
+//! the straight line from the start's end-effector position to the target (at its
+//! midpoint) and asks for `--clearance-m` (a `[collision]` table): benchmark tasks whose
+//! direct motion is blocked (issue #33). A candidate is kept only if the generating η's own
+//! path keeps that clearance from the keep-out and from the robot itself (spec §13), so a
+//! collision-free plan is known to exist.
+//!
 //! `--preshape` adds a `[preshape]` table (its defaults): the tasks ask for two-phase plans.
 //! `--family free_amplitude` writes `[motion] family`: the planner then plans with the
 //! free-amplitude family (the targets are made as always, by the paper family's rollouts).
 
 use crate::args::{List, RobotArgs, parse_family, parse_list};
+use crate::clearance::{CollisionSection, KeepOutSection, Scene};
 use crate::error::CliError;
 use crate::output::OutDir;
 use crate::records::relative_text;
@@ -84,6 +92,14 @@ pub struct Args {
     /// nothing) or free_amplitude (for targets near a fixed start's reach).
     #[arg(long, value_parser = parse_family, default_value = "paper")]
     family: Family,
+    /// Put a spherical keep-out of this radius (m, > 0) across the straight line from the
+    /// start's end-effector position to each target, and keep only targets whose
+    /// generating path clears it and the robot itself by `--clearance-m` (rollout targets).
+    #[arg(long)]
+    keep_out_radius_m: Option<f64>,
+    /// With `--keep-out-radius-m`: the required clearance written to `[collision]` (m, ≥ 0).
+    #[arg(long, default_value_t = 0.02)]
+    clearance_m: f64,
     /// How the targets' rollouts integrate the path, written as `[motion] integrator`:
     /// euler (the reference, written as nothing), rk4 or ab5 (the targets are then that path's truth
     /// poses, whose base drift is far smaller than Euler's).
@@ -131,6 +147,20 @@ impl Args {
                     "{flag} {v} must be a finite number >= 0"
                 )));
             }
+        }
+        if let Some(r) = self.keep_out_radius_m {
+            positive("--keep-out-radius-m", r)?;
+            if self.kind != Kind::Rollout {
+                return Err(CliError::input(
+                    "--keep-out-radius-m needs --kind rollout (a generating path to keep clear)",
+                ));
+            }
+        }
+        if !(self.clearance_m.is_finite() && self.clearance_m >= 0.0) {
+            return Err(CliError::input(format!(
+                "--clearance-m {} must be a finite number >= 0",
+                self.clearance_m
+            )));
         }
         let chain = self.robot.load()?;
         with_dims!(chain.dof(), generate_n, &chain, &self)
@@ -188,6 +218,46 @@ fn perturb(pose: &Pose, m: f64, angle: f64, stream: &mut Stream) -> Pose {
     }
 }
 
+/// A kept target: what made it (η, or q in deg), the target, how far the end effector
+/// moves (m), and the centre of its keep-out (m) if one blocks the straight line.
+type Found = (Vec<f64>, Pose, f64, Option<[f64; 3]>);
+
+/// `true` if the path of `eta` from `q0` keeps `--clearance-m` from a sphere of radius `r`
+/// at `centre` and from the robot itself (every pair of spec §13), with no tunnelling.
+fn clear_of<const N: usize, const K: usize>(
+    chain: &Chain,
+    o: &Args,
+    task: &Task<N, K>,
+    eta: &[[f64; 2]; K],
+    q0: &[f64; N],
+    centre: [f64; 3],
+    r: f64,
+) -> bool {
+    let keep = [KeepOutSection {
+        name: "obstacle".into(),
+        shape: "sphere".into(),
+        position_m: centre.to_vec(),
+        rpy_deg: None,
+        half_extents_m: None,
+        radius_m: Some(r),
+        length_m: None,
+    }];
+    let collision = CollisionSection {
+        clearance_m: o.clearance_m,
+        ignore: Vec::new(),
+    };
+    let err = |m: String| CliError::input(m);
+    let Ok(scene) = Scene::new(chain, &keep, Some(&collision), q0, &err, &o.robot.urdf) else {
+        return false; // the sphere touches the start
+    };
+    let Ok((times, qs)) =
+        crate::clearance::path_of(task, &reactionless::trajectory::one_segment(*eta))
+    else {
+        return false;
+    };
+    scene.sweep(&times, &qs).pass()
+}
+
 fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result<(), CliError> {
     let robot = chain.robot::<N>(&o.robot.urdf)?;
     let start_deg = &o.q_deg.0;
@@ -223,7 +293,7 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
     })?;
     let start = probe.start_pose().position;
     let mut stream = Stream::for_purpose(o.seed, Purpose::Generator);
-    let mut found: Vec<(Vec<f64>, Pose, f64)> = Vec::new();
+    let mut found: Vec<Found> = Vec::new();
     let mut attempts = 0;
     while found.len() < o.count as usize && attempts < ATTEMPTS_PER_TASK * o.count {
         attempts += 1;
@@ -249,7 +319,7 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
             let end = probe.end_pose(&q, IDENTITY_WXYZ);
             let moved = distance(&end.position, &start);
             let deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-            found.push((deg, end, moved));
+            found.push((deg, end, moved, None));
             continue;
         }
         let mut eta = [[0.0; 2]; K];
@@ -270,8 +340,23 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
             if o.kind == Kind::Perturbed {
                 end = perturb(&end, o.move_m, o.move_deg.to_radians(), &mut stream);
             }
+            let keep_out = match o.keep_out_radius_m {
+                None => None,
+                Some(r) => {
+                    let centre = [0, 1, 2].map(|i| 0.5 * (start[i] + end.position[i]));
+                    if !clear_of(chain, o, &probe, &eta, &q0, centre, r) {
+                        continue;
+                    }
+                    Some(centre)
+                }
+            };
             let moved = distance(&end.position, &start);
-            found.push((eta.iter().flatten().copied().collect(), end, moved));
+            found.push((
+                eta.iter().flatten().copied().collect(),
+                end,
+                moved,
+                keep_out,
+            ));
         }
     }
     if found.len() < o.count as usize {
@@ -283,7 +368,7 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
     }
     let dir = OutDir::create(&o.out)?;
     let urdf_rel = relative_text(&o.out, &o.robot.urdf)?;
-    for (k, (eta, target, moved)) in found.iter().enumerate() {
+    for (k, (eta, target, moved, keep_out)) in found.iter().enumerate() {
         let mut t = String::new();
         let how = match o.kind {
             Kind::Rollout => format!(
@@ -342,6 +427,15 @@ fn generate_n<const N: usize, const K: usize>(chain: &Chain, o: &Args) -> Result
             let _ = writeln!(
                 t,
                 "\n[preshape]  # plan in two phases (spec §15); every key has a default"
+            );
+        }
+        if let (Some(c), Some(r)) = (keep_out, o.keep_out_radius_m) {
+            let _ = writeln!(
+                t,
+                "\n# Across the straight line from the start's end effector to the target; the\n# generating eta's path keeps the clearance.\n[[keep_out]]\nname = \"obstacle\"\nshape = \"sphere\"\nposition_m = {}\nradius_m = {}\n\n[collision]\nclearance_m = {}",
+                fmt_list(c),
+                ryu::Buffer::new().format(r),
+                ryu::Buffer::new().format(o.clearance_m)
             );
         }
         dir.write(&format!("task_{:03}.toml", k + 1), t.as_bytes())?;

@@ -247,7 +247,16 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
     if let Some(s) = retimed {
         eprintln!("{}", retiming::describe(&s, &path.join("retimed")));
     }
-    eprintln!("{}", human_summary(lt, &asked, &p, &json, &run, &path));
+    let clearance = clearance_of::<N>(lt, &path);
+    eprintln!(
+        "{}",
+        human_summary(lt, &asked, &p, &json, &run, &path, clearance.as_ref())
+    );
+    if let Some((text, true)) = &clearance {
+        return Err(CliError::failed(format!(
+            "the plan reaches the target but violates the required clearance: {text}; clearance is not yet a constraint of the planner (docs/collision.md)"
+        )));
+    }
     if converged {
         Ok(())
     } else {
@@ -257,6 +266,24 @@ fn run_n<const N: usize, const K: usize>(lt: &LoadedTask, args: &Args) -> Result
             p.rollouts
         )))
     }
+}
+
+/// The written plan's clearance line ([`crate::clearance::summary_line`]), read back from
+/// its `trajectory.csv`; `None` without collision geometry.
+fn clearance_of<const N: usize>(lt: &LoadedTask, dir: &Path) -> Option<(String, bool)> {
+    let line = || -> Result<Option<(String, bool)>, CliError> {
+        let csv = std::fs::read_to_string(dir.join("trajectory.csv"))
+            .map_err(|e| CliError::input(format!("{}: {e}", dir.display())))?;
+        let written = crate::output::read_trajectory_csv::<N>(dir, &csv)?;
+        let Some(first) = written.first() else {
+            return Ok(None);
+        };
+        let scene = lt.scene(&first.q)?;
+        let times: Vec<f64> = written.iter().map(|s| s.t).collect();
+        let qs: Vec<Vec<f64>> = written.iter().map(|s| s.q.to_vec()).collect();
+        Ok(crate::clearance::summary_line(&scene, &times, &qs))
+    };
+    line().unwrap_or_else(|e| Some((format!("not measured: {e}"), false)))
 }
 
 /// Why a plan that is not converged misses what was asked, in one sentence: how it
@@ -300,6 +327,7 @@ fn human_summary<const N: usize, const K: usize>(
     json: &PlanJson,
     run: &RolloutRun<N>,
     dir: &Path,
+    clearance: Option<&(String, bool)>,
 ) -> String {
     let limit_deg = lt.max_base_disturbance_deg();
     let disturbance = run.truth.base_disturbance_deg;
@@ -331,6 +359,7 @@ fn human_summary<const N: usize, const K: usize>(
          \x20 base disturbance     {} deg (requirement ≤ {limit_deg} deg: {})\n\
          \x20 largest joint rate   {} deg/s on {} (its limit {} deg/s: {:.0}%)\n\
          \x20 rollouts             {}{} in {:.2} s\n\
+         {}\
          \x20 files                {}/ (plan.json, summary.json, trajectory.csv, task.toml, robot.urdf)",
         json.strategy,
         json.seed,
@@ -350,6 +379,10 @@ fn human_summary<const N: usize, const K: usize>(
         json.rollouts,
         integrated_by(lt),
         json.wall_time_s,
+        clearance.as_ref().map_or(String::new(), |c| format!(
+            "  smallest clearance   {}\n",
+            c.0
+        )),
         dir.display(),
     )
 }

@@ -150,27 +150,17 @@ fn closed_cases() {
     assert!((signed_distance(&b, &diag) - expect).abs() < 1e-15);
     // Overlapping boxes: depth along x.
     assert!((signed_distance(&b, &at(unit_box, id, [0.9, 0.0, 0.0])) + 0.1).abs() < 1e-15);
-    // A capsule lying across the box's top face, 0.3 m above it.
-    let cap = at(
-        Shape::Capsule {
+    // A capsule lying across the box's top face, 0.3 m above it; then through the box at
+    // z = 0.1: its segment must rise 0.4 m to leave the box, and its radius adds 0.1 m.
+    let across = |z: f64| {
+        let capsule = Shape::Capsule {
             length: 4.0,
             radius: 0.1,
-        },
-        [0.0, q * 2.0, 0.0],
-        [0.0, 0.0, 0.9],
-    );
-    assert!((signed_distance(&b, &cap) - 0.3).abs() < 1e-15);
-    // The same capsule through the box at z = 0.1: its segment must rise 0.4 m to leave the
-    // box, and its radius adds 0.1 m.
-    let through = at(
-        Shape::Capsule {
-            length: 4.0,
-            radius: 0.1,
-        },
-        [0.0, q * 2.0, 0.0],
-        [0.0, 0.0, 0.1],
-    );
-    assert!((signed_distance(&b, &through) + 0.5).abs() < 1e-15);
+        };
+        at(capsule, [0.0, q * 2.0, 0.0], [0.0, 0.0, z])
+    };
+    assert!((signed_distance(&b, &across(0.9)) - 0.3).abs() < 1e-15);
+    assert!((signed_distance(&b, &across(0.1)) + 0.5).abs() < 1e-15);
     // Sphere pair, capsule pair (parallel).
     let s = |x: f64| at(Shape::Sphere { radius: 0.25 }, id, [x, 0.0, 0.0]);
     assert!((signed_distance(&s(0.0), &s(1.0)) - 0.5).abs() < 1e-15);

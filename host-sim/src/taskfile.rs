@@ -838,14 +838,7 @@ impl LoadedTask {
                 self.err(format!("[preshape] {name}: {e}"))
             })?;
         }
-        let q0: Vec<f64> = self
-            .file
-            .start
-            .q_deg
-            .iter()
-            .map(|d| d.to_radians())
-            .collect();
-        self.scene(&q0)?;
+        self.scene(&self.start_rad())?;
         let t = &self.file.target.position_m;
         if t.len() == 3 && t.iter().all(|v| v.is_finite()) {
             let distance = t.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -857,6 +850,16 @@ impl LoadedTask {
             }
         }
         Ok(())
+    }
+
+    /// `[start] q_deg` in radians, as many values as the file gives.
+    pub fn start_rad(&self) -> Vec<f64> {
+        self.file
+            .start
+            .q_deg
+            .iter()
+            .map(|d| d.to_radians())
+            .collect()
     }
 
     /// The collision scene of this task (`crate::clearance`) with the robot at `q0` (rad) at

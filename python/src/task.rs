@@ -145,15 +145,7 @@ impl Task {
     /// Start configuration q₀ (rad).
     #[getter]
     fn start<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let q: Vec<f64> = self
-            .lt
-            .file
-            .start
-            .q_deg
-            .iter()
-            .map(|d| d.to_radians())
-            .collect();
-        PyArray1::from_vec(py, q)
+        PyArray1::from_vec(py, self.lt.start_rad())
     }
 
     /// Target end-effector position (m, inertial frame).

@@ -264,30 +264,37 @@ fn overlap(lo_a: f64, hi_a: f64, lo_b: f64, hi_b: f64) -> Option<f64> {
     }
 }
 
+/// The separating-axis test over candidate `axes` (any length; those shorter than
+/// [`DEGENERATE`] are skipped): `None` if one separates (`overlap_along` a unit axis is
+/// `None`), else the smallest overlap, the penetration depth of two convex polytopes whose
+/// face normals and edge cross products the axes are.
+fn penetration(
+    axes: impl Iterator<Item = Vec3>,
+    overlap_along: impl Fn(&Vec3) -> Option<f64>,
+) -> Option<f64> {
+    let mut depth = f64::INFINITY;
+    for axis in axes {
+        let n2 = axis.dot(&axis);
+        if n2 <= DEGENERATE {
+            continue;
+        }
+        depth = depth.min(overlap_along(&(axis / libm::sqrt(n2)))?);
+    }
+    Some(depth)
+}
+
 /// Signed distance from segment `p0p1` (box frame) to the box `|x_i| ≤ h_i` (m).
 fn segment_box(p0: &Vec3, p1: &Vec3, h: &Vec3) -> f64 {
     // Separating axes: the box's face normals and the segment's direction × each of them.
     let d = p1 - p0;
     let e = [Vec3::x(), Vec3::y(), Vec3::z()];
-    let mut depth = f64::INFINITY;
-    let mut apart = false;
-    for axis in e.iter().copied().chain(e.iter().map(|k| d.cross(k))) {
-        let n2 = axis.dot(&axis);
-        if n2 <= DEGENERATE {
-            continue;
-        }
-        let n = axis / libm::sqrt(n2);
+    let axes = e.iter().copied().chain(e.iter().map(|k| d.cross(k)));
+    let overlap_along = |n: &Vec3| {
         let rb = h.x * n.x.abs() + h.y * n.y.abs() + h.z * n.z.abs();
         let (s0, s1) = (n.dot(p0), n.dot(p1));
-        match overlap(s0.min(s1), s0.max(s1), -rb, rb) {
-            Some(o) => depth = depth.min(o),
-            None => {
-                apart = true;
-                break;
-            }
-        }
-    }
-    if !apart {
+        overlap(s0.min(s1), s0.max(s1), -rb, rb)
+    };
+    if let Some(depth) = penetration(axes, overlap_along) {
         return -depth;
     }
     let mut best = point_box(p0, h).min(point_box(p1, h));
@@ -310,24 +317,12 @@ fn box_box(h1: &Vec3, c: &Vec3, r: &Mat3, h2: &Vec3) -> f64 {
         h.x * n.dot(&e[0]).abs() + h.y * n.dot(&e[1]).abs() + h.z * n.dot(&e[2]).abs()
     };
     let crosses = e1.iter().flat_map(|a| e2.iter().map(move |b| a.cross(b)));
-    let mut depth = f64::INFINITY;
-    let mut apart = false;
-    for axis in e1.iter().copied().chain(e2.iter().copied()).chain(crosses) {
-        let n2 = axis.dot(&axis);
-        if n2 <= DEGENERATE {
-            continue;
-        }
-        let n = axis / libm::sqrt(n2);
-        let (r1, r2, s) = (radius(h1, &e1, &n), radius(h2, &e2, &n), n.dot(c));
-        match overlap(-r1, r1, s - r2, s + r2) {
-            Some(o) => depth = depth.min(o),
-            None => {
-                apart = true;
-                break;
-            }
-        }
-    }
-    if !apart {
+    let axes = e1.iter().copied().chain(e2.iter().copied()).chain(crosses);
+    let overlap_along = |n: &Vec3| {
+        let (r1, r2, s) = (radius(h1, &e1, n), radius(h2, &e2, n), n.dot(c));
+        overlap(-r1, r1, s - r2, s + r2)
+    };
+    if let Some(depth) = penetration(axes, overlap_along) {
         return -depth;
     }
     let ca = corners(h1);

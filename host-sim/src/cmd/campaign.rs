@@ -58,8 +58,7 @@ fn one<const N: usize, const K: usize>(
     let truth = write_rollout(&task, &p.eta, None, false)?.truth;
     // The written path's clearance, where the task requires one: a run that reaches the
     // target but violates it is not a success.
-    let q0: Vec<f64> = lt.file.start.q_deg.iter().map(|d| d.to_radians()).collect();
-    let scene = lt.scene(&q0)?;
+    let scene = lt.scene(&lt.start_rad())?;
     let sweep = if scene.enforced && !scene.is_empty() {
         let (times, qs) = crate::clearance::path_of(&task, &p.eta)?;
         Some(scene.sweep(&times, &qs))

@@ -283,7 +283,7 @@ impl Scene {
         Ok(scene)
     }
 
-    /// `true` if at least one pair is checked.
+    /// `true` if no pair is checked (no geometry on either side of any pair).
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty()
     }
@@ -616,9 +616,12 @@ impl Sweep {
     /// `true` if every pair keeps the required clearance, resolution included (whether or
     /// not the task requires it).
     pub fn clear(&self) -> bool {
-        self.pairs
-            .iter()
-            .all(|p| p.resolved && p.min_m - RESOLUTION_M >= self.required_m)
+        self.pairs.iter().all(|p| self.keeps(p))
+    }
+
+    /// `true` if pair `p` keeps the required clearance, resolution included.
+    pub fn keeps(&self, p: &PairMin) -> bool {
+        p.resolved && p.min_m - RESOLUTION_M >= self.required_m
     }
 }
 

@@ -505,8 +505,7 @@ fn clearance_lines<const N: usize>(
             if p.resolved { "" } else { " (unresolved)" }
         )
     };
-    let ok =
-        |p: &PairMin| !sweep.enforced || (p.resolved && p.min_m - RESOLUTION_M >= sweep.required_m);
+    let ok = |p: &PairMin| !sweep.enforced || sweep.keeps(p);
     let mut lines = Vec::new();
     if let Some(w) = sweep.worst() {
         lines.push(line(

@@ -135,6 +135,15 @@ pub enum Param {
     DragWeight,
     /// Pull of the closed loop's drift estimate toward each cycle's.
     DriftGain,
+    /// Collision primitive `i` (1-based, in the order given) of the robot: its body index or
+    /// a size (m), spec §13.
+    Collider(u8),
+    /// Keep-out `k` (1-based): a size or its pose (m).
+    KeepOut(u8),
+    /// A checked pair of the collision set: an index that names no primitive or keep-out.
+    CollisionPair,
+    /// Required clearance (m), or the planning margin above it.
+    Clearance,
 }
 
 impl Param {
@@ -197,6 +206,8 @@ impl Param {
             Param::LoopAccel => "closed_loop.qdd_max_deg_s2",
             Param::DragWeight => "closed_loop.drag_weight_per_m2",
             Param::DriftGain => "closed_loop.drift_gain",
+            Param::Clearance => "collision.clearance_m",
+            Param::KeepOut(_) => "keep_out",
             Param::Mass(_)
             | Param::CenterOfMass(_)
             | Param::Inertia(_)
@@ -207,6 +218,8 @@ impl Param {
             | Param::VelocityLimit(_)
             | Param::EndEffector
             | Param::Joints
+            | Param::Collider(_)
+            | Param::CollisionPair
             | Param::Eta(_) => return None,
         })
     }
@@ -368,6 +381,10 @@ pub enum Error {
     /// A motion integrated by [`crate::Integrator::Rk4`] was given to several rollouts side
     /// by side ([`crate::batch::Batch`]), which integrate with the reference Euler step.
     NeedsEuler,
+    /// A task with collision geometry ([`crate::Task::with_collision`]) was given to
+    /// something that does not evaluate it: several rollouts side by side, or a motion
+    /// integrated by RK4 or AB5. Its clearance is evaluated by the scalar Euler rollout.
+    NeedsScalarEuler,
     /// A motion of several segments was given to something that plans or rolls out one.
     NeedsOneSegment(NeedsOneSegment),
     /// A re-timing grid of fewer than `min` points ([`crate::retime::MIN_GRID`]).
@@ -474,6 +491,10 @@ impl fmt::Display for Param {
             Param::LoopAccel => f.write_str("closed-loop acceleration limit"),
             Param::DragWeight => f.write_str("closed-loop drag weight"),
             Param::DriftGain => f.write_str("drift estimate gain"),
+            Param::Collider(i) => write!(f, "collision primitive {i}"),
+            Param::KeepOut(k) => write!(f, "keep-out {k}"),
+            Param::CollisionPair => f.write_str("collision pair"),
+            Param::Clearance => f.write_str("clearance (m)"),
         }
     }
 }
@@ -558,6 +579,9 @@ impl fmt::Display for Error {
             ),
             Error::NeedsEuler => f.write_str(
                 "rollouts side by side (lanes) integrate with Euler only: roll an rk4 motion out one at a time",
+            ),
+            Error::NeedsScalarEuler => f.write_str(
+                "collision geometry is evaluated by the scalar Euler rollout only: not in lanes, not with rk4 or ab5",
             ),
             Error::StrideUneven { stride } => write!(
                 f,

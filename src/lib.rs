@@ -75,9 +75,10 @@ pub mod search;
 // group them by layer, the paths stay what they were.
 pub use flight::{block, closed_loop, execute, planner, reference, twophase};
 pub use path::{batch, digest, integrator, preshape, retime, rollout, task, trajectory, truth};
-pub use physics::{collision, geometry, kinematics, model, momentum, nullspace};
+pub use physics::{clearance, collision, geometry, kinematics, model, momentum, nullspace};
 pub use search::{config, cpso, multistart, optimizer, random, refine, strategy, swarm};
 
+pub use clearance::CollisionSet;
 pub use config::{
     MAX_WINDOW, PlannerConfig, RefineAgainst, RefineConfig, StagnationConfig, Strategy,
 };

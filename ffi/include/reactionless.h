@@ -38,7 +38,7 @@
 /*
  Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
  */
-#define RL_ABI_VERSION 7
+#define RL_ABI_VERSION 8
 
 /*
  Joints of the flight robot (N).
@@ -65,7 +65,7 @@
  Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_PLANNER_WORDS 4608
+#define RL_PLANNER_WORDS 5120
 
 /*
  Words (u64) of stream storage inside [`rl_setpoints`].
@@ -186,7 +186,7 @@
  Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
  target, with headroom so that a small growth of the core keeps the ABI.
  */
-#define RL_TWO_PHASE_WORDS 2880
+#define RL_TWO_PHASE_WORDS 3840
 
 /*
  Bytes that always hold a two-phase checkpoint of this ABI version

@@ -75,7 +75,7 @@ pub type FlightPlanner = Planner<7, 4, 64>;
 pub type FlightSetpoints = Setpoints<7, 4>;
 
 /// Version of this ABI: the layout of every `rl_*` type and the meaning of every function.
-pub const RL_ABI_VERSION: u32 = 7;
+pub const RL_ABI_VERSION: u32 = 8;
 /// Joints of the flight robot (N).
 pub const RL_JOINTS: usize = 7;
 /// Entries of one segment's η: 2K with K = N − 3, as `a1, b1, a2, b2, …`.
@@ -87,7 +87,7 @@ pub const RL_MAX_SEGMENTS: usize = 4;
 pub const RL_PLAN_ETA_LEN: usize = 32;
 /// Words (u64) of planner storage inside [`rl_planner`]: room for the planner on every
 /// target, with headroom so that a small growth of the core keeps the ABI.
-pub const RL_PLANNER_WORDS: usize = 4608;
+pub const RL_PLANNER_WORDS: usize = 5120;
 /// Words (u64) of stream storage inside [`rl_setpoints`].
 pub const RL_SETPOINTS_WORDS: usize = 384;
 /// Bytes that always hold a checkpoint of this ABI version (`rl_checkpoint_size()` is at

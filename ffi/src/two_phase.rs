@@ -39,7 +39,7 @@ pub type FlightTwoPhase = TwoPhaseSearch<7, 4>;
 
 /// Words (u64) of search storage inside [`rl_two_phase`]: room for the search on every
 /// target, with headroom so that a small growth of the core keeps the ABI.
-pub const RL_TWO_PHASE_WORDS: usize = 2880;
+pub const RL_TWO_PHASE_WORDS: usize = 3840;
 /// Bytes that always hold a two-phase checkpoint of this ABI version
 /// (`rl_two_phase_checkpoint_size()` is at most this), for sizing a static buffer or a CDS
 /// block at compile time.

@@ -32,6 +32,8 @@
 
 use crate::error::CliError;
 use crate::urdf::Chain;
+use reactionless::Robot;
+use reactionless::clearance::{CollisionSet, Side as CoreSide};
 use reactionless::collision::{Placed, Shape, signed_distance};
 use reactionless::geometry::{Mat3, Vec3, rpy_matrix};
 use serde::Deserialize;
@@ -41,11 +43,10 @@ use std::collections::BTreeSet;
 /// by the path, and no point of the path is closer by more than this.
 pub const RESOLUTION_M: f64 = 1e-6;
 
-/// Most collision primitives on one robot (base and links), the capacity of the flight
-/// image's collision set.
-pub const MAX_PRIMITIVES: usize = 32;
-/// Most keep-outs in one task.
-pub const MAX_KEEP_OUTS: usize = 16;
+/// Most collision primitives on one robot (base and links): the core's capacity.
+pub const MAX_PRIMITIVES: usize = reactionless::clearance::MAX_PRIMITIVES;
+/// Most keep-outs in one task: the core's capacity.
+pub const MAX_KEEP_OUTS: usize = reactionless::clearance::MAX_KEEP_OUTS;
 
 /// Most bisections of one sample interval for one pair: a bound on the work (`2^20`
 /// evaluations would be reached only by a pair that keeps its smallest distance, to within
@@ -105,7 +106,14 @@ pub struct CollisionSection {
     pub clearance_m: f64,
     /// Pairs not checked, by link or keep-out name: `[["link2", "link5"], ["base", "probe"]]`.
     pub ignore: Vec<[String; 2]>,
+    /// How far above `clearance_m` the planner aims (m), ≥ 0; default
+    /// [`DEFAULT_MARGIN_M`]. The planner evaluates pairs only when they come within this of
+    /// the required clearance.
+    pub margin_m: Option<f64>,
 }
+
+/// `[collision] margin_m` when not given (m).
+pub const DEFAULT_MARGIN_M: f64 = 0.005;
 
 /// The robot's geometry and the task's keep-outs, fixed at load time.
 #[derive(Debug, Clone)]
@@ -123,6 +131,8 @@ pub struct Scene {
     /// `true` if the task asks for clearance (`[collision]` or a `[[keep_out]]`); if not,
     /// the robot's own clearance is only reported.
     pub enforced: bool,
+    /// `[collision] margin_m` (m).
+    pub margin_m: f64,
     /// Joint frames: rotation and translation of each joint's origin, and its unit axis.
     joints: Vec<(Mat3, Vec3, Vec3)>,
     /// Mass and centre of mass (body frame) of each body.
@@ -211,6 +221,12 @@ impl Scene {
                 c.clearance_m
             )));
         }
+        let margin_m = c.margin_m.unwrap_or(DEFAULT_MARGIN_M);
+        if !(margin_m.is_finite() && margin_m >= 0.0) {
+            return Err(err(format!(
+                "[collision] margin_m = {margin_m} must be a finite number >= 0 (m)"
+            )));
+        }
         let mut ignore = BTreeSet::new();
         for (i, [a, b]) in c.ignore.iter().enumerate() {
             for n in [a, b] {
@@ -247,6 +263,7 @@ impl Scene {
             pairs: Vec::new(),
             required_m: c.clearance_m,
             enforced: collision.is_some() || !keep.is_empty(),
+            margin_m,
             joints: chain
                 .joints
                 .iter()
@@ -286,6 +303,61 @@ impl Scene {
     /// `true` if no pair is checked (no geometry on either side of any pair).
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty()
+    }
+
+    /// The planner's constraint: the core's collision set of this scene on `robot` (the
+    /// same primitives, keep-outs and pairs, each body pair expanded to its primitives), or
+    /// an empty set if the task does not require clearance.
+    ///
+    /// # Errors
+    /// The core's refusal (a capacity), as a message.
+    pub fn collision_set<const N: usize>(
+        &self,
+        robot: &Robot<N>,
+    ) -> Result<CollisionSet<N>, String> {
+        if !self.enforced || self.is_empty() {
+            return Ok(CollisionSet::EMPTY);
+        }
+        let core = |e: reactionless::Error| e.to_string();
+        let mut set = CollisionSet::new(self.required_m, self.margin_m).map_err(core)?;
+        let placed = |p: &Part| Placed {
+            shape: p.shape,
+            rot: p.rot,
+            pos: p.pos,
+        };
+        let mut index: Vec<Vec<u8>> = Vec::with_capacity(self.bodies.len());
+        for (i, parts) in self.bodies.iter().enumerate() {
+            let body = u8::try_from(i).map_err(|_| "more than 255 bodies".to_string())?;
+            let mut ids = Vec::with_capacity(parts.len());
+            for p in parts {
+                ids.push(set.add_primitive(robot, body, &placed(p)).map_err(core)?);
+            }
+            index.push(ids);
+        }
+        let mut keep = Vec::with_capacity(self.keep_outs.len());
+        for p in &self.keep_outs {
+            keep.push(set.add_keep_out(&placed(p)).map_err(core)?);
+        }
+        // The core checks spec §13's pairs; what this scene leaves out, it ignores.
+        let side = |s: Side| match s {
+            Side::Body(i) => u8::try_from(i).ok().map(CoreSide::Body),
+            Side::KeepOut(k) => keep.get(k).copied().map(CoreSide::KeepOut),
+        };
+        let n = self.bodies.len();
+        let rule = (0..n)
+            .flat_map(|i| (i + 2..n).map(move |j| (Side::Body(i), Side::Body(j))))
+            .chain((0..n).flat_map(|i| {
+                (0..self.keep_outs.len()).map(move |k| (Side::Body(i), Side::KeepOut(k)))
+            }));
+        for (a, b) in rule {
+            if !self.pairs.contains(&(a, b)) {
+                let (Some(a), Some(b)) = (side(a), side(b)) else {
+                    return Err("a body or keep-out index above the core's capacity".into());
+                };
+                set.ignore(a, b).map_err(core)?;
+            }
+        }
+        Ok(set)
     }
 
     /// `"'link2' ↔ keep-out 'panel'"`.

@@ -1066,7 +1066,11 @@ impl LoadedTask {
         let target = self.target()?;
         let motion = self.motion()?;
         let (lower, upper) = (*robot.lower(), *robot.upper());
-        Task::new(robot, q0, target, motion).map_err(|e| match e {
+        let set = self
+            .scene(&q0)?
+            .collision_set(&robot)
+            .map_err(|m| self.err(format!("[collision]: {m}")))?;
+        let task = Task::new(robot, q0, target, motion).map_err(|e| match e {
             CoreError::StartOutsideLimits(j) => {
                 let i = usize::from(j) - 1;
                 let get = |a: &[f64]| a.get(i).copied().unwrap_or(f64::NAN).to_degrees();
@@ -1090,6 +1094,11 @@ impl LoadedTask {
                 self.file.start.q_deg
             )),
             other => self.err(other),
+        })?;
+        task.with_collision(set).map_err(|e| {
+            self.err(format!(
+                "[planner] integrator: {e} (the task has [collision] or [[keep_out]])"
+            ))
         })
     }
 

@@ -647,12 +647,14 @@ impl<const N: usize, const K: usize, const P: usize, const L: usize, E: Engine>
     /// Starts `c` (the current candidate) and the candidates the search knows after it in
     /// lanes, if it knows at least one (`false`: evaluate `c` alone).
     fn start_ahead(&mut self, c: &Candidate<K>) -> bool {
-        // Lanes roll out one segment with the reference discretization: a motion of several,
-        // or one integrated by RK4, goes one candidate at a time.
+        // Lanes roll out one segment with the reference discretization and no collision
+        // geometry: a motion of several, one integrated by RK4, or a task with geometry goes
+        // one candidate at a time.
         let motion = self.task.motion();
         if c.truth
             || motion.segments() > 1
             || motion.integrator() != crate::Integrator::Euler
+            || self.task.collision().is_some()
             || self.ahead_candidate(1).is_none()
         {
             return false;

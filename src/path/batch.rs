@@ -158,7 +158,7 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
     /// # Errors
     /// As [`Rollout::new`] (the lane stays empty); [`Error::NotInitialized`] for a lane
     /// index out of range or a lane that is not empty; [`Error::NeedsEuler`] for a motion
-    /// integrated by RK4.
+    /// integrated by RK4; [`Error::NeedsScalarEuler`] for a task with collision geometry.
     pub fn load(
         &mut self,
         i: usize,
@@ -171,6 +171,9 @@ impl<const N: usize, const K: usize, const L: usize> Batch<N, K, L> {
         }
         if task.motion().integrator() != Integrator::Euler {
             return Err(Error::NeedsEuler);
+        }
+        if task.collision().is_some() {
+            return Err(Error::NeedsScalarEuler);
         }
         let law = TimeLaw::new(eta, task.motion(), task.robot().qd_max()).map_err(|e| {
             if task.motion().segments() > 1 {

@@ -79,7 +79,9 @@ pub struct Outcome<const N: usize> {
     pub joint_min: [f64; N],
     /// Largest value of each joint over all samples (rad).
     pub joint_max: [f64; N],
-    /// Constraint violation Φ of eq. 23 (rad); 0 when the limits hold.
+    /// Constraint violation: Φ of eq. 23 (rad), plus, with collision geometry, the
+    /// clearance shortfall `max(0, required − clearance)` (m, counted 1 rad per m); 0 when
+    /// the limits and the clearance hold.
     pub phi: f64,
     /// End-effector pose at `t_f`, planner model (base attitude identity, base position
     /// from CoM conservation).
@@ -92,6 +94,12 @@ pub struct Outcome<const N: usize> {
     pub max_abs_qd: f64,
     /// `g` for the η as given: eq. 14's, or the motion family's ([`crate::TimeLaw::g`]).
     pub g: f64,
+    /// With collision geometry ([`Task::with_collision`]): a lower bound of the path's
+    /// clearance (m), certified between samples
+    /// ([`crate::clearance::CollisionSet::step_bound`]), or the limit (required clearance
+    /// plus margin) if the path stays above it; `∞` without geometry. Below the required
+    /// clearance, the shortfall is part of [`Outcome::phi`].
+    pub clearance: f64,
 }
 
 /// Where a rollout is.
@@ -282,6 +290,9 @@ pub struct Rollout<const N: usize, const K: usize> {
     span: Span<N, K>,
     /// Abandon once Φ of the samples so far exceeds this (rad); `∞` never abandons.
     phi_cap: f64,
+    /// The clearance bound of the steps so far (m; `∞` before the first, or without
+    /// geometry).
+    clear: f64,
     phase: Phase<N>,
 }
 
@@ -313,6 +324,7 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             state,
             span: Span::IDLE,
             phi_cap: f64::INFINITY,
+            clear: f64::INFINITY,
             phase: Phase::Running,
         }
     }
@@ -454,6 +466,12 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         let grid = motion.segment();
         let per = grid.steps().max(1);
         let mut frames = Frames::IDLE;
+        let geometry = task.collision();
+        if geometry.is_some() {
+            // The frames of the sample the loop starts at (then each step leaves them at
+            // the next one).
+            let _ = frames.update_chain(robot, &self.state.q);
+        }
         while self.step < end {
             // The segment of this step: its weights, its first step and where it ends.
             let k = (self.step / per).min(motion.segments().saturating_sub(1));
@@ -467,9 +485,11 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
                     .state
                     .rates(&ab, inv_g, &grid, grid.time(self.step - first));
                 self.record(t, &qd, sink);
-                if let Err(stop) = cap.check(self.step, || {
-                    robot.violation(&self.state.q_min, &self.state.q_max)
-                }) {
+                if let Some(set) = geometry {
+                    let bound = set.step_bound(&frames, &task.com0(), &qd, dt);
+                    self.clear = self.clear.min(bound);
+                }
+                if let Err(stop) = cap.check(self.step, || self.violation(task)) {
                     return Ok(Err(stop));
                 }
                 let stepped = self.state.step_one(robot, &qd, dt, &mut frames);
@@ -507,6 +527,9 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
         cap: &C,
         sink: &mut S,
     ) -> Result<Result<(), C::Stop>, Error> {
+        if task.collision().is_some() {
+            return Err(Error::NeedsScalarEuler);
+        }
         let motion = task.motion();
         let robot = task.robot();
         let grid = motion.segment();
@@ -666,12 +689,24 @@ impl<const N: usize, const K: usize> Rollout<N, K> {
             q_final: s.q,
             joint_min: s.q_min,
             joint_max: s.q_max,
-            phi: task.robot().violation(&s.q_min, &s.q_max),
+            phi: self.violation(task),
             end_pose,
             error,
             f: error.norm(),
             max_abs_qd: s.max_abs_qd,
             g: self.law.g(),
+            clearance: self.clear,
+        }
+    }
+
+    /// Φ of the samples so far, plus the clearance shortfall of the steps so far with
+    /// collision geometry (without, Φ alone, bit for bit).
+    #[inline]
+    fn violation(&self, task: &Task<N, K>) -> f64 {
+        let phi = task.robot().violation(&self.state.q_min, &self.state.q_max);
+        match task.collision() {
+            Some(set) => phi + (set.required() - self.clear).max(0.0),
+            None => phi,
         }
     }
 

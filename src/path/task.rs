@@ -5,6 +5,7 @@
 //! the end effector, and the initial null-space basis `N₀` shared by every rollout.
 //! The inertial frame is the base frame at `t = 0`.
 
+use crate::clearance::CollisionSet;
 use crate::error::{Error, Param, RankLoss};
 use crate::geometry::{Pose, Vec3, canonical, normalized};
 use crate::kinematics::{Frames, IDENTITY_WXYZ};
@@ -23,6 +24,9 @@ pub struct Task<const N: usize, const K: usize> {
     com0: Vec3,
     start_pose: Pose,
     basis0: Basis<N, K>,
+    collision: CollisionSet<N>,
+    /// `collision` checks at least one pair.
+    colliding: bool,
 }
 
 impl<const N: usize, const K: usize> Task<N, K> {
@@ -36,6 +40,8 @@ impl<const N: usize, const K: usize> Task<N, K> {
         com0: crate::geometry::ZERO3,
         start_pose: Pose::ZERO,
         basis0: Basis::IDLE,
+        collision: CollisionSet::EMPTY,
+        colliding: false,
     };
 
     /// Validates the start `q0` (rad) against the limits and the target (position in m,
@@ -75,6 +81,8 @@ impl<const N: usize, const K: usize> Task<N, K> {
         target: Pose,
         motion: Motion,
     ) -> Result<(), Error> {
+        self.collision = CollisionSet::EMPTY;
+        self.colliding = false;
         self.robot.init(robot)?;
         self.finish(q0, target, motion)
     }
@@ -112,6 +120,41 @@ impl<const N: usize, const K: usize> Task<N, K> {
         self.motion = motion;
         self.basis0 = basis0;
         Ok(())
+    }
+
+    /// The task with collision geometry (spec §13): every rollout of it evaluates the
+    /// clearance of its path ([`crate::Outcome::clearance`]), and a shortfall below the
+    /// required clearance counts as constraint violation in Φ, so both strategies plan
+    /// around it. An empty set leaves the task as it was, bit for bit.
+    ///
+    /// # Errors
+    /// [`Error::NeedsScalarEuler`] if the motion is integrated by RK4 or AB5 (their
+    /// rollouts do not evaluate the geometry).
+    pub fn with_collision(mut self, set: CollisionSet<N>) -> Result<Self, Error> {
+        self.set_collision(set)?;
+        Ok(self)
+    }
+
+    /// [`Task::with_collision`] in place.
+    ///
+    /// # Errors
+    /// As [`Task::with_collision`]; the task then keeps its geometry.
+    pub fn set_collision(&mut self, set: CollisionSet<N>) -> Result<(), Error> {
+        if !set.is_empty() && self.motion.integrator() != crate::trajectory::Integrator::Euler {
+            return Err(Error::NeedsScalarEuler);
+        }
+        self.collision = set;
+        self.colliding = !self.collision.is_empty();
+        if self.colliding {
+            self.collision.bound(&self.robot);
+        }
+        Ok(())
+    }
+
+    /// The collision geometry, if any pair is checked.
+    #[must_use]
+    pub fn collision(&self) -> Option<&CollisionSet<N>> {
+        self.colliding.then_some(&self.collision)
     }
 
     /// The robot model.

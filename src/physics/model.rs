@@ -264,22 +264,7 @@ impl<const N: usize> Robot<N> {
         let (base_mass, base_com, base_inertia) = validate_body(&desc.base, Body::Base)?;
         let mut qd_max = f64::INFINITY;
         let mut total_mass = base_mass;
-        // Pass 1: a joint frame Q_i per joint (z on the axis, Q_0 = base frame) and the
-        // ZXZ angles of C_i = Q_{i−1}ᵀ R_origin Q_i = Rz(a_i) Rx(b_i) Rz(c_i).
-        let mut frames = [Mat3::identity(); N];
-        let mut zxz = [(0.0, 0.0, 0.0); N];
-        let mut q_prev = Mat3::identity();
-        let items = desc
-            .joints
-            .iter()
-            .zip(frames.iter_mut())
-            .zip(zxz.iter_mut());
-        for (i, ((joint, frame), angles)) in items.enumerate() {
-            let axis = validate_joint(joint, (i + 1) as u8)?;
-            *frame = frame_with_z(&axis);
-            *angles = zxz_angles(&(q_prev.transpose() * joint.origin.rotation() * *frame));
-            q_prev = *frame;
-        }
+        let (frames, zxz) = joint_frames(desc)?;
         // Pass 2: turn each joint frame about its axis by φ_i = a_{i+1} (φ_N = 0), which
         // leaves C'_i = Rz(−φ_{i−1}) C_i Rz(φ_i) = Rx(b_i) Rz(c_i + φ_i).
         let first_a = zxz.first().map_or(0.0, |z| z.0);
@@ -296,12 +281,11 @@ impl<const N: usize> Robot<N> {
         for (i, ((((joint, link), seg), (lo, up)), (frame, &(_, b, c)))) in items {
             let j = (i + 1) as u8;
             let (mass, com, inertia) = validate_body(link, Body::Link(j))?;
-            let phi = zxz.get(i + 1).map_or(0.0, |z| z.0);
-            let q_this = frame * rot_z(phi);
+            let q_this = frame * rot_z(zxz.get(i + 1).map_or(0.0, |z| z.0));
             let q_this_t = q_this.transpose();
             *seg = Segment {
                 twist: libm::sincos(b),
-                theta: c + phi,
+                theta: c + zxz.get(i + 1).map_or(0.0, |z| z.0),
                 offset: q_prev.transpose() * joint.origin.translation(),
                 mass,
                 com: q_this_t * com,
@@ -383,6 +367,49 @@ impl<const N: usize> Robot<N> {
             phi += (*mx - *hi).max(T::ZERO) + (T::splat(*lo) - *mn).max(T::ZERO);
         }
         phi
+    }
+}
+
+/// Pass 1 of [`Robot::init`]: a joint frame `Q_i` per joint (`z` on the axis, in URDF
+/// link frame `i`'s axes; `Q_0` = base frame) and the ZXZ angles of
+/// `C_i = Q_{i−1}ᵀ R_origin Q_i = Rz(a_i) Rx(b_i) Rz(c_i)`.
+#[allow(clippy::type_complexity)]
+fn joint_frames<const N: usize>(
+    desc: &RobotDesc<N>,
+) -> Result<([Mat3; N], [(f64, f64, f64); N]), Error> {
+    let mut frames = [Mat3::identity(); N];
+    let mut zxz = [(0.0, 0.0, 0.0); N];
+    let mut q_prev = Mat3::identity();
+    let items = desc
+        .joints
+        .iter()
+        .zip(frames.iter_mut())
+        .zip(zxz.iter_mut());
+    for (i, ((joint, frame), angles)) in items.enumerate() {
+        let axis = validate_joint(joint, (i + 1) as u8)?;
+        *frame = frame_with_z(&axis);
+        *angles = zxz_angles(&(q_prev.transpose() * joint.origin.rotation() * *frame));
+        q_prev = *frame;
+    }
+    Ok((frames, zxz))
+}
+
+impl<const N: usize> Robot<N> {
+    /// The attitude of each link's joint frame (the frame [`crate::Frames`] carries, `z` on
+    /// the joint axis) in the axes of the URDF frame of the same link: a point `x` given in
+    /// URDF link frame `i` is `Q_iᵀ x` in joint frame `i` (both frames have their origin on
+    /// the joint). Used to carry geometry given in URDF link frames (collision primitives)
+    /// into the frames the rollout computes.
+    #[must_use]
+    pub fn link_attitudes(&self) -> [Mat3; N] {
+        let mut out = [Mat3::identity(); N];
+        // The description was validated when the model was built, so pass 1 succeeds.
+        if let Ok((frames, zxz)) = joint_frames(&self.desc) {
+            for (i, (o, frame)) in out.iter_mut().zip(frames.iter()).enumerate() {
+                *o = frame * rot_z(zxz.get(i + 1).map_or(0.0, |z| z.0));
+            }
+        }
+        out
     }
 }
 

@@ -21,11 +21,14 @@
 //! screening point puts each segment's `2K` components on its own unit sphere. One segment
 //! is the search above, bit for bit.
 //!
-//! **Residual.** `r = [e; w·p]` (`6 + N` rows): the pose error `e` of spec §6 and, per joint
+//! **Residual.** `r = [e; w·p]` (`6 + N` rows, `7 + N` with collision geometry): the pose error `e` of spec §6 and, per joint
 //! `j`, `p_j = max(0, q_max,j − (hi_j − m)) + max(0, (lo_j + m) − q_min,j)`, the joint-limit
 //! excess beyond a margin `m` inside the limits ([`LmConfig::penalty_weight`] `w`,
-//! [`LmConfig::margin`] `m`). With `w = 0` the rows are left out and a trial with `Φ > 0` is
-//! rejected instead.
+//! [`LmConfig::margin`] `m`). With collision geometry ([`crate::Task::with_collision`])
+//! one more row, `w·max(0, c_lim − c)`: the path's clearance bound `c`
+//! ([`crate::Outcome::clearance`]) below the required clearance plus the set's margin
+//! `c_lim` ([`crate::clearance::CollisionSet::limit`]). With `w = 0` the rows are left out
+//! and a trial with `Φ > 0` is rejected instead.
 //!
 //! **One LM start.**
 //! 1. Jacobian of `r` along the `2K − 1` tangent directions by forward differences
@@ -66,6 +69,7 @@
 //! The first rollout with `Φ = 0` and `f ≤ σ_e` is recorded ([`MultistartReport::first_hit`])
 //! so one run can be measured against both σ_e and a refinement tolerance.
 
+use crate::clearance::CollisionSet;
 use crate::config::{PlannerConfig, RefineAgainst};
 use crate::error::NeedsOneSegment;
 use crate::error::{Error, Param};
@@ -94,7 +98,7 @@ pub const FLOOR_STARTS: u32 = 3;
 /// segments of a 7-joint arm (K = 4).
 pub const MAX_DIM: usize = 32;
 /// Largest residual length `6 + N`.
-pub const MAX_ROWS: usize = 18;
+pub const MAX_ROWS: usize = 19;
 /// Largest screening batch.
 pub const MAX_SCREEN: usize = 16;
 /// Damping at which a start counts as stalled.
@@ -290,6 +294,9 @@ pub struct Multistart<const N: usize, const K: usize> {
     refine_patience: u32,
     lower: [f64; N],
     upper: [f64; N],
+    /// With collision geometry: the required clearance plus the margin (m), where the
+    /// clearance row starts.
+    clearance_limit: Option<f64>,
     phase: Phase,
     pool: [Col; MAX_SCREEN],
     pool_r: [Res; MAX_SCREEN],
@@ -322,7 +329,7 @@ pub struct Multistart<const N: usize, const K: usize> {
 }
 
 impl<const N: usize, const K: usize> Multistart<N, K> {
-    const FITS: () = assert!(2 * K <= MAX_DIM && 6 + N <= MAX_ROWS && K >= 1);
+    const FITS: () = assert!(2 * K <= MAX_DIM && 7 + N <= MAX_ROWS && K >= 1);
 
     /// No search (a placeholder, `const`, for statically allocated planners).
     pub const IDLE: Self = Self {
@@ -332,6 +339,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         refine_patience: 0,
         lower: [0.0; N],
         upper: [0.0; N],
+        clearance_limit: None,
         phase: Phase::Done,
         pool: [[0.0; MAX_DIM]; MAX_SCREEN],
         pool_r: [[0.0; MAX_ROWS]; MAX_SCREEN],
@@ -417,6 +425,7 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
         self.tolerance = tolerance;
         self.lower = *robot.lower();
         self.upper = *robot.upper();
+        self.clearance_limit = None;
         for p in &mut self.pool {
             *p = [0.0; MAX_DIM];
         }
@@ -467,10 +476,11 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
     /// anyway (cap 0); with them, `Φ > √N‖r‖/w` implies `‖r_trial‖ > ‖r‖` (rejected).
     fn trial_cap(&self) -> f64 {
         let w = self.config.penalty_weight;
+        let rows = N + usize::from(self.clearance_limit.is_some());
         if w == 0.0 {
             0.0
         } else {
-            libm::sqrt(N as f64 * self.merit) / w * (1.0 + 1e-9)
+            libm::sqrt(rows as f64 * self.merit) / w * (1.0 + 1e-9)
         }
     }
 
@@ -594,6 +604,9 @@ impl<const N: usize, const K: usize> Multistart<N, K> {
             let extrema = o.joint_min.iter().zip(o.joint_max.iter());
             for (v, ((lo, hi), (mn, mx))) in r.iter_mut().skip(6).zip(limits.zip(extrema)) {
                 *v = w * ((mx - (hi - m)).max(0.0) + ((lo + m) - mn).max(0.0));
+            }
+            if let (Some(limit), Some(v)) = (self.clearance_limit, r.get_mut(6 + N)) {
+                *v = w * (limit - o.clearance).max(0.0);
             }
         }
         r
@@ -996,7 +1009,9 @@ impl<const N: usize, const K: usize> Method<N, K> for Multistart<N, K> {
         stream: &mut Stream,
     ) -> Result<(), Error> {
         let (lm, tolerance) = Self::settings(config, task.motion());
-        self.reset(&lm, task.robot(), tolerance, stream)
+        self.reset(&lm, task.robot(), tolerance, stream)?;
+        self.clearance_limit = task.collision().map(CollisionSet::limit);
+        Ok(())
     }
 
     fn tolerance(&self) -> f64 {

@@ -245,6 +245,7 @@ fn clear_of<const N: usize, const K: usize>(
     let collision = CollisionSection {
         clearance_m: o.clearance_m,
         ignore: Vec::new(),
+        margin_m: None,
     };
     let err = |m: String| CliError::input(m);
     let Ok(scene) = Scene::new(chain, &keep, Some(&collision), q0, &err, &o.robot.urdf) else {

@@ -15,7 +15,9 @@ use crate::nullspace::{Basis, Dims};
 use crate::trajectory::Motion;
 
 /// Everything a rollout or a plan needs besides η. Immutable.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// `clone_from` works in place, field by field: a flight stack never holds a whole task.
+#[derive(Debug, PartialEq)]
 pub struct Task<const N: usize, const K: usize> {
     robot: Robot<N>,
     q0: [f64; N],
@@ -27,6 +29,26 @@ pub struct Task<const N: usize, const K: usize> {
     collision: CollisionSet<N>,
     /// `collision` checks at least one pair.
     colliding: bool,
+}
+
+impl<const N: usize, const K: usize> Clone for Task<N, K> {
+    fn clone(&self) -> Self {
+        let mut t = Self::IDLE;
+        t.clone_from(self);
+        t
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.robot.clone_from(&source.robot);
+        self.q0 = source.q0;
+        self.target = source.target;
+        self.motion = source.motion;
+        self.com0 = source.com0;
+        self.start_pose = source.start_pose;
+        self.basis0 = source.basis0;
+        self.collision.copy_from(&source.collision);
+        self.colliding = source.colliding;
+    }
 }
 
 impl<const N: usize, const K: usize> Task<N, K> {

@@ -266,6 +266,26 @@ impl<const N: usize> CollisionSet<N> {
         self.required + self.margin
     }
 
+    /// `*self = source.clone()` element by element, with no set-sized temporary (the
+    /// flight stack).
+    pub(crate) fn copy_from(&mut self, source: &Self) {
+        self.primitives.clear();
+        for p in &source.primitives {
+            // The same capacity: every push fits.
+            let _ = self.primitives.push(*p);
+        }
+        self.keep_outs.clear();
+        for k in &source.keep_outs {
+            let _ = self.keep_outs.push(*k);
+        }
+        self.ignored = source.ignored;
+        self.ignored_keep_outs = source.ignored_keep_outs;
+        self.required = source.required;
+        self.margin = source.margin;
+        self.reach = source.reach;
+        self.base_reach = source.base_reach;
+    }
+
     /// Bounds the motion of every primitive on `robot` (`ρ_j` and the base's share):
     /// called once by [`crate::Task::with_collision`].
     pub(crate) fn bound(&mut self, robot: &Robot<N>) {
